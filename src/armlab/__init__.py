@@ -1,0 +1,15 @@
+"""armlab: modelling and control of robot manipulators.
+
+Conventions (frames, twist and wrench ordering, Euler angles, units): ``docs/notation.md``.
+"""
+
+from armlab.kinematics import forward_kinematics, geometric_jacobian, link_frames
+from armlab.model import Robot, RobotFileError
+from armlab.robots import bundled_robot_names, load_robot
+
+__version__ = "0.1.0"
+
+__all__ = [
+    "Robot", "RobotFileError", "bundled_robot_names", "forward_kinematics",
+    "geometric_jacobian", "link_frames", "load_robot",
+]

@@ -1,0 +1,289 @@
+"""Immutable description of a serial manipulator and its plain-array form for compiled code.
+
+Every joint i moves the frame of link i relative to the frame of link i−1 (Σ_0 for i = 1):
+
+    T_{i−1,i}(q_i) = P_i · M_i(q_i + offset_i) · S_i                                  (K1)
+
+where ``P_i`` (``joint.before``) and ``S_i`` (``joint.after``) are constant transforms and
+``M_i`` is a rotation about (revolute) or a translation along (prismatic) the local z axis.
+Standard DH gives P_i = I, S_i = Rz(θ)Tz(d)Tx(a)Rx(α) with the joint variable taken out;
+modified DH gives P_i = Rx(α)Tx(a)Rz(θ)Tz(d), S_i = I; a URDF joint gives
+P_i = origin·R_axis, S_i = R_axisᵀ.  See ``docs/notation.md``.
+
+The frame after M_i, the *joint frame* J_i, always has the joint axis as its z axis and its
+origin on that axis; the compiled kernels work in joint frames only, so every algorithm
+(kinematics, RNEA, Jacobians) treats DH and URDF robots alike.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+from functools import cached_property
+from typing import Literal, NamedTuple
+
+import numpy as np
+
+from armlab.spatial import hom_rot_x, hom_rot_z, trans_x, trans_z
+
+REVOLUTE, PRISMATIC = 0, 1
+JOINT_KINDS = {"revolute": REVOLUTE, "prismatic": PRISMATIC}
+
+
+def _frozen_array(value, shape) -> np.ndarray:
+    array = np.array(value, dtype=float).reshape(shape)
+    array.setflags(write=False)
+    return array
+
+
+@dataclass(frozen=True)
+class DHRow:
+    """One row of a Denavit–Hartenberg table; the joint variable adds to θ or d.
+
+    ``convention`` is ``"standard"`` (A = Rz(θ) Tz(d) Tx(a) Rx(α)) or ``"modified"``
+    (A = Rx(α) Tx(a) Rz(θ) Tz(d), Craig).  Lengths in m, angles in rad.
+    """
+
+    a: float
+    alpha: float
+    d: float
+    theta: float
+    convention: Literal["standard", "modified"] = "standard"
+
+
+@dataclass(frozen=True)
+class Motor:
+    """Joint actuator: rotor of inertia ``rotor_inertia`` I_m [kg·m²] about the joint axis,
+    geared by ``gear_ratio`` k_r (rotor angle = k_r · q; [rad/rad] or [rad/m]).
+
+    The rotor of motor i sits on link i−1 (Siciliano et al. §7.2), so its reflected inertia
+    k_r² I_m and its gyroscopic coupling with link i−1 enter the dynamics.
+    """
+
+    gear_ratio: float = 1.0
+    rotor_inertia: float = 0.0
+
+
+@dataclass(frozen=True)
+class Friction:
+    """Joint friction τ_f = F_v q̇ + F_s sign(q̇): ``viscous`` F_v [N·s/m | N·m·s/rad],
+    ``coulomb`` F_s [N | N·m]."""
+
+    viscous: float = 0.0
+    coulomb: float = 0.0
+
+
+@dataclass(frozen=True)
+class Joint:
+    """A 1-DoF joint; ``before``/``after`` are P_i and S_i of (K1), (4, 4)."""
+
+    name: str
+    kind: Literal["revolute", "prismatic"]
+    before: np.ndarray
+    after: np.ndarray
+    offset: float = 0.0
+    limits: tuple[float, float] = (-np.inf, np.inf)
+    motor: Motor = field(default_factory=Motor)
+    friction: Friction = field(default_factory=Friction)
+    dh: DHRow | None = None
+
+    def __post_init__(self):
+        object.__setattr__(self, "before", _frozen_array(self.before, (4, 4)))
+        object.__setattr__(self, "after", _frozen_array(self.after, (4, 4)))
+
+    @classmethod
+    def from_dh(cls, name: str, kind: str, row: DHRow, **kwargs) -> Joint:
+        """The joint of a DH row; the joint variable is θ (revolute) or d (prismatic).
+
+        The row's θ (revolute) or d (prismatic) becomes the joint offset.
+        """
+        if kind not in JOINT_KINDS:
+            raise ValueError(f"unknown joint type {kind!r}")
+        revolute = kind == "revolute"
+        fixed_theta = np.eye(4) if revolute else hom_rot_z(row.theta)
+        fixed_d = trans_z(row.d) if revolute else np.eye(4)
+        offset = row.theta if revolute else row.d
+        if row.convention == "standard":
+            before = np.eye(4)
+            after = fixed_theta @ fixed_d @ trans_x(row.a) @ hom_rot_x(row.alpha)
+        elif row.convention == "modified":
+            before = hom_rot_x(row.alpha) @ trans_x(row.a) @ fixed_theta @ fixed_d
+            after = np.eye(4)
+        else:
+            raise ValueError(f"unknown DH convention {row.convention!r}")
+        return cls(name=name, kind=kind, before=before, after=after, offset=offset, dh=row, **kwargs)
+
+    def motion(self, q: float) -> np.ndarray:
+        """M(q + offset), (4, 4)."""
+        value = q + self.offset
+        return hom_rot_z(value) if self.kind == "revolute" else trans_z(value)
+
+    def transform(self, q: float) -> np.ndarray:
+        """T_{i−1,i}(q) of (K1), (4, 4)."""
+        return self.before @ self.motion(q) @ self.after
+
+
+@dataclass(frozen=True)
+class Inertial:
+    """Mass properties of a link, in the link frame Σ_i.
+
+    ``mass`` [kg], ``com`` r_C (3,) [m], ``inertia`` I_C (3, 3) [kg·m²] about the centre of
+    mass with axes parallel to Σ_i.  ``shape`` records where the values came from (for
+    drawing and documentation), e.g. ``{"type": "box", "size": [a, b, c], "rpy": [...]}``.
+    """
+
+    mass: float = 0.0
+    com: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    inertia: np.ndarray = field(default_factory=lambda: np.zeros((3, 3)))
+    shape: dict | None = None
+
+    def __post_init__(self):
+        object.__setattr__(self, "com", _frozen_array(self.com, (3,)))
+        object.__setattr__(self, "inertia", _frozen_array(self.inertia, (3, 3)))
+
+
+@dataclass(frozen=True)
+class Link:
+    name: str
+    inertial: Inertial = field(default_factory=Inertial)
+
+
+class RobotArrays(NamedTuple):
+    """The plain-array form of a :class:`Robot` consumed by the compiled kernels.
+
+    Everything is expressed in joint frames J_i (z = joint axis):
+
+    * ``joint_type`` (n,) int64: 0 revolute, 1 prismatic;
+    * ``tree_R`` (n, 3, 3), ``tree_p`` (n, 3): X_i = S_{i−1} P_i, the constant transform
+      from J_{i−1} (Σ_0 for i = 0) to J_i before the motion M_i(q_i);
+    * ``offset`` (n,): joint offsets added to q before M_i;
+    * ``tool_R`` (3, 3), ``tool_p`` (3,): S_n · T_tool, from J_n to the end effector Σ_e;
+    * ``base_R`` (3, 3), ``base_p`` (3,): T_base0, Σ_0 in Σ_base;
+    * ``mass`` (n,), ``com`` (n, 3), ``inertia`` (n, 3, 3): link i in J_i, about its COM;
+    * ``gear_ratio``, ``rotor_inertia``, ``viscous``, ``coulomb``, ``q_min``, ``q_max`` (n,);
+    * ``gravity`` (3,): g_0 in Σ_0 [m/s²].
+    """
+
+    joint_type: np.ndarray
+    tree_R: np.ndarray
+    tree_p: np.ndarray
+    offset: np.ndarray
+    tool_R: np.ndarray
+    tool_p: np.ndarray
+    base_R: np.ndarray
+    base_p: np.ndarray
+    mass: np.ndarray
+    com: np.ndarray
+    inertia: np.ndarray
+    gear_ratio: np.ndarray
+    rotor_inertia: np.ndarray
+    viscous: np.ndarray
+    coulomb: np.ndarray
+    q_min: np.ndarray
+    q_max: np.ndarray
+    gravity: np.ndarray
+
+
+@dataclass(frozen=True)
+class Robot:
+    """A serial manipulator: joints, links, gravity, base and tool (immutable).
+
+    ``joints[i]`` moves ``links[i]``.  ``base`` is T_base0 (Σ_0 seen from Σ_base), ``tool`` the
+    end-effector frame Σ_e seen from the last link frame Σ_n.  ``gravity`` is g_0 in Σ_0
+    [m/s²].  ``source`` names the file it was loaded from, ``description`` says what it is,
+    ``parameters`` holds the named values of the robot file (L0, m_Link4, …) and ``spec`` the
+    file's raw content, expressions unevaluated, for the symbolic derivations.
+    """
+
+    name: str
+    joints: tuple[Joint, ...]
+    links: tuple[Link, ...]
+    gravity: np.ndarray = field(default_factory=lambda: np.array([0.0, 0.0, -9.81]))
+    base: np.ndarray = field(default_factory=lambda: np.eye(4))
+    tool: np.ndarray = field(default_factory=lambda: np.eye(4))
+    description: str = ""
+    source: str = ""
+    parameters: dict = field(default_factory=dict)
+    spec: dict = field(default_factory=dict)
+
+    def __post_init__(self):
+        object.__setattr__(self, "joints", tuple(self.joints))
+        object.__setattr__(self, "links", tuple(self.links))
+        object.__setattr__(self, "gravity", _frozen_array(self.gravity, (3,)))
+        object.__setattr__(self, "base", _frozen_array(self.base, (4, 4)))
+        object.__setattr__(self, "tool", _frozen_array(self.tool, (4, 4)))
+        if len(self.joints) != len(self.links):
+            raise ValueError(f"{len(self.joints)} joints but {len(self.links)} links")
+        if not self.joints:
+            raise ValueError("a robot needs at least one joint")
+
+    def __hash__(self):
+        return id(self)
+
+    def __eq__(self, other):
+        return self is other
+
+    @property
+    def n(self) -> int:
+        """Number of joints (degrees of freedom)."""
+        return len(self.joints)
+
+    @property
+    def joint_names(self) -> list[str]:
+        return [j.name for j in self.joints]
+
+    @property
+    def is_dh(self) -> bool:
+        return all(j.dh is not None for j in self.joints)
+
+    def replace(self, **changes) -> Robot:
+        """A copy with fields changed (the robot itself is never mutated)."""
+        return replace(self, **changes)
+
+    def with_link_mass(self, link: int | str, mass: float, *, scale_inertia: bool = True) -> Robot:
+        """A copy whose link ``link`` has ``mass`` [kg]; its inertia tensor scales with the mass
+        (same shape, different density) unless ``scale_inertia`` is False."""
+        index = link if isinstance(link, int) else [lk.name for lk in self.links].index(link)
+        old = self.links[index].inertial
+        factor = mass / old.mass if (scale_inertia and old.mass > 0) else 1.0
+        new_inertial = replace(old, mass=mass, inertia=old.inertia * factor)
+        links = list(self.links)
+        links[index] = replace(links[index], inertial=new_inertial)
+        return replace(self, links=tuple(links))
+
+    @cached_property
+    def arrays(self) -> RobotArrays:
+        """The :class:`RobotArrays` of this robot (computed once; the robot is immutable)."""
+        n = self.n
+        tree = np.zeros((n, 4, 4))
+        previous_after = np.eye(4)
+        com = np.zeros((n, 3))
+        inertia = np.zeros((n, 3, 3))
+        for i, (joint, link) in enumerate(zip(self.joints, self.links)):
+            tree[i] = previous_after @ joint.before
+            previous_after = joint.after
+            # The link's inertial is given in Σ_i = J_i · S_i; move it into J_i.
+            R_after, p_after = joint.after[:3, :3], joint.after[:3, 3]
+            com[i] = R_after @ link.inertial.com + p_after
+            inertia[i] = R_after @ link.inertial.inertia @ R_after.T
+        tool = previous_after @ self.tool
+        arrays = RobotArrays(
+            joint_type=np.array([JOINT_KINDS[j.kind] for j in self.joints], dtype=np.int64),
+            tree_R=np.ascontiguousarray(tree[:, :3, :3]),
+            tree_p=np.ascontiguousarray(tree[:, :3, 3]),
+            offset=np.array([j.offset for j in self.joints]),
+            tool_R=np.ascontiguousarray(tool[:3, :3]),
+            tool_p=np.ascontiguousarray(tool[:3, 3]),
+            base_R=np.ascontiguousarray(self.base[:3, :3]),
+            base_p=np.ascontiguousarray(self.base[:3, 3]),
+            mass=np.array([lk.inertial.mass for lk in self.links]),
+            com=com,
+            inertia=inertia,
+            gear_ratio=np.array([j.motor.gear_ratio for j in self.joints]),
+            rotor_inertia=np.array([j.motor.rotor_inertia for j in self.joints]),
+            viscous=np.array([j.friction.viscous for j in self.joints]),
+            coulomb=np.array([j.friction.coulomb for j in self.joints]),
+            q_min=np.array([j.limits[0] for j in self.joints], dtype=float),
+            q_max=np.array([j.limits[1] for j in self.joints], dtype=float),
+            gravity=np.array(self.gravity, dtype=float),
+        )
+        return arrays
