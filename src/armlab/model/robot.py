@@ -258,7 +258,7 @@ class Robot:
         previous_after = np.eye(4)
         com = np.zeros((n, 3))
         inertia = np.zeros((n, 3, 3))
-        for i, (joint, link) in enumerate(zip(self.joints, self.links)):
+        for i, (joint, link) in enumerate(zip(self.joints, self.links, strict=True)):
             tree[i] = previous_after @ joint.before
             previous_after = joint.after
             # The link's inertial is given in Σ_i = J_i · S_i; move it into J_i.
