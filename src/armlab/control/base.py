@@ -1,0 +1,223 @@
+"""The controller and environment protocols of the compiled simulator.
+
+A controller is a small dynamical system (python-control's ``nlsys`` shape) with output and
+state equations
+
+    τ = h(t, y, z),    ż = f(t, y, z),    y = (q, q̇, h_e)                               (C0)
+
+where ``z`` (k,) is the controller's internal state (adaptive estimates, integral of an error,
+a compliant frame …).  The simulator owns ``z``: it stores ``z(0) = initial_state()``,
+integrates ``ż`` together with the plant (or, under sampled control, updates it once per
+control period, see ``armlab.simulation``) and logs it as ``SimulationResult.z``.
+
+Writing a controller
+--------------------
+A controller is a **frozen dataclass** subclassing :class:`Controller`.  It holds
+
+* ``model`` — its own :class:`~armlab.model.robot.Robot`, the controller's belief about the
+  plant.  Model mismatch is "build the controller with a different robot"
+  (``plant.with_link_mass("link4", 0.16)``); the plant passed to ``simulate`` is the truth;
+* its parameters (gains, reference, options) as ordinary fields.
+
+It points at its compiled law through the class attribute ``law``: a **module-level**
+``@numba.njit(cache=True)`` function (the simulator imports it by module and name to build a
+compiled loop per controller/environment pair, so closures and lambdas are refused) with the
+signature
+
+    law(t, q, qd, z, h_e, params, tau_out, zdot_out, signals_out) -> None
+
+=============  ========  ==================================================================
+argument       shape     meaning
+=============  ========  ==================================================================
+``t``          float     time [s]
+``q, qd``      (n,)      measured joint positions / velocities [m | rad], [m/s | rad/s]
+``z``          (k,)      controller state (read only)
+``h_e``        (6,)      measured end-effector wrench [f; μ] in Σ_0 [N, N·m] that the
+                         end effector exerts on the environment (zeros in free space)
+``params``     tuple     ``Controller.params()``, plain arrays only (see below)
+``tau_out``    (n,)      write the commanded joint torque/force τ [N·m | N]
+``zdot_out``   (k,)      write ż (k may be 0)
+``signals_out``(s,)      write the logged signals, concatenated in ``signals()`` order
+=============  ========  ==================================================================
+
+The law must not allocate: every temporary lives in an array of ``params`` (for example a
+workspace from ``armlab.kernels.dynamics.make_workspace``).  It must write every entry of its
+three outputs on every call.  It is called from compiled code only (the RK4 loop, the
+right-hand side used by the adaptive integrator, tests), so it may call any other compiled
+kernel: ``armlab.kernels.dynamics`` on ``model.arrays``, ``armlab.kernels.kinematics``,
+``armlab.references.reference_into`` on a reference's ``data``.
+
+``params()`` returns a tuple (fixed length and element types per class) of NumPy arrays,
+numbers, :class:`~armlab.model.robot.RobotArrays` and tuples of those.  It is called once per
+simulation; the simulator gives every parallel run its own copy, so workspaces inside may be
+scratch memory.
+
+``initial_state()`` returns z(0) (k,), ``state_labels()`` its k component names, and
+``signals()`` the :class:`Signal` list describing ``signals_out`` (name, component labels,
+units) — the seed's "scopes".  The simulator adds ``q_des`` etc. only if the controller logs
+them: a controller should log what a user wants to see (references, errors, estimates).
+
+Minimal example (a joint PD, τ = K_P (q_des − q) − K_D q̇, no state)::
+
+    from dataclasses import dataclass
+    import numpy as np
+    from numba import njit
+    from armlab.control.base import Controller, Signal
+
+    @njit(cache=True)
+    def pd_law(t, q, qd, z, h_e, params, tau_out, zdot_out, signals_out):
+        q_des, kp, kd = params
+        for i in range(q.shape[0]):
+            tau_out[i] = kp[i] * (q_des[i] - q[i]) - kd[i] * qd[i]
+            signals_out[i] = q_des[i] - q[i]
+
+    @dataclass(frozen=True)
+    class PD(Controller):
+        model: Robot
+        q_des: np.ndarray
+        kp: np.ndarray
+        kd: np.ndarray
+        law = pd_law                      # a class attribute, not a dataclass field
+
+        def params(self):
+            return (np.asarray(self.q_des, float), np.asarray(self.kp, float),
+                    np.asarray(self.kd, float))
+
+        def signals(self):
+            return (Signal.joint("q_err", self.model, "error"),)
+
+    result = armlab.simulate(plant, PD(plant, q_des, kp, kd), q0=..., t_final=2.0, dt=1e-3)
+
+Environments
+------------
+An environment (free space, a spring, a wall) maps the end-effector motion to the wrench
+h_e the end effector exerts on it.  It is a frozen dataclass subclassing
+:class:`Environment` whose class attribute ``law`` is a module-level njit function
+
+    law(t, R_0e, p_0e, v_e, params, h_e_out) -> None
+
+with ``R_0e`` (3, 3) and ``p_0e`` (3,) [m] the end-effector pose of the *plant* in Σ_0,
+``v_e`` (6,) its twist [ṗ; ω] in Σ_0 [m/s, rad/s], ``params`` = ``Environment.params()``
+(same rules as a controller's) and ``h_e_out`` (6,) the wrench [f; μ] in Σ_0 [N, N·m].  The
+simulator evaluates it at every right-hand-side evaluation, feeds h_e into the plant
+(B q̈ + C q̇ + F_v q̇ + F_s sgn q̇ + g = τ − J_eᵀ h_e) and passes it to the controller as its
+measurement.
+"""
+
+from __future__ import annotations
+
+import abc
+import importlib
+from dataclasses import dataclass
+
+import numpy as np
+
+from armlab.errors import ArmlabError
+
+
+class ProtocolError(ArmlabError, TypeError):
+    """A controller or environment that does not follow the protocol of this module."""
+
+
+@dataclass(frozen=True)
+class Signal:
+    """A named, logged signal: ``labels`` (one per component) and ``units`` (one per component)."""
+
+    name: str
+    labels: tuple[str, ...]
+    units: tuple[str, ...]
+
+    def __post_init__(self):
+        object.__setattr__(self, "labels", tuple(self.labels))
+        object.__setattr__(self, "units", tuple(self.units))
+        if len(self.labels) != len(self.units):
+            raise ProtocolError(f"signal {self.name}: {len(self.labels)} labels but "
+                                f"{len(self.units)} units")
+
+    @property
+    def width(self) -> int:
+        return len(self.labels)
+
+    @classmethod
+    def joint(cls, name: str, robot, kind: str) -> Signal:
+        """One component per joint of ``robot``, units by joint type.
+
+        ``kind``: "position" / "error" (m | rad), "velocity" (m/s | rad/s), "acceleration"
+        (m/s² | rad/s²) or "effort" (N | N·m).
+        """
+        table = {"position": ("m", "rad"), "error": ("m", "rad"), "velocity": ("m/s", "rad/s"),
+                 "acceleration": ("m/s²", "rad/s²"), "effort": ("N", "N·m")}
+        if kind not in table:
+            raise ProtocolError(f"signal {name}: unknown kind {kind!r} (use {', '.join(table)})")
+        prismatic, revolute = table[kind]
+        units = [prismatic if j.kind == "prismatic" else revolute for j in robot.joints]
+        return cls(name, tuple(robot.joint_names), tuple(units))
+
+
+def law_location(law) -> tuple[str, str]:
+    """(module, name) under which a compiled law can be imported; refuses anything else."""
+    module_name = getattr(getattr(law, "py_func", None), "__module__", None)
+    name = getattr(getattr(law, "py_func", None), "__name__", None)
+    if module_name is None or not hasattr(law, "signatures"):
+        raise ProtocolError(f"law {law!r} is not a numba.njit function")
+    module = importlib.import_module(module_name)
+    if getattr(module, name, None) is not law:
+        raise ProtocolError(f"law {module_name}.{name} must be a module-level njit function")
+    return module_name, name
+
+
+@dataclass(frozen=True)
+class Controller(abc.ABC):
+    """Base of every controller: see the module docstring for the protocol (C0)."""
+
+    @property
+    def n(self) -> int:
+        """Number of joints of the controller's model."""
+        return self.model.n
+
+    @abc.abstractmethod
+    def params(self) -> tuple:
+        """The tuple of plain arrays passed to ``law`` as ``params``."""
+
+    def initial_state(self) -> np.ndarray:
+        """z(0), (k,); stateless controllers have k = 0."""
+        return np.zeros(0)
+
+    def state_labels(self) -> tuple[str, ...]:
+        """Names of the k components of z."""
+        return ()
+
+    def signals(self) -> tuple[Signal, ...]:
+        """The logged signals written into ``signals_out``, in order."""
+        return ()
+
+    def describe(self) -> dict:
+        """Plain, JSON-able description of the controller (stored in ``SimulationResult.meta``)."""
+        out = {"type": type(self).__name__}
+        for key, value in vars(self).items():
+            if key == "model":
+                out[key] = value.name
+            elif isinstance(value, np.ndarray):
+                out[key] = value.tolist()
+            elif isinstance(value, (int, float, str, bool)) or value is None:
+                out[key] = value
+            elif hasattr(value, "describe"):
+                out[key] = value.describe()
+            else:
+                out[key] = repr(value)
+        return out
+
+
+@dataclass(frozen=True)
+class Environment(abc.ABC):
+    """Base of every environment: see the module docstring for the protocol."""
+
+    @abc.abstractmethod
+    def params(self) -> tuple:
+        """The tuple of plain arrays passed to ``law`` as ``params``."""
+
+    def describe(self) -> dict:
+        out = {"type": type(self).__name__}
+        for key, value in vars(self).items():
+            out[key] = value.tolist() if isinstance(value, np.ndarray) else value
+        return out
