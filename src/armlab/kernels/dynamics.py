@@ -1,0 +1,468 @@
+"""Compiled rigid-body dynamics in joint frames: RNEA, CRBA, g, C (Christoffel), forward dynamics.
+
+Every kernel takes the robot's :class:`~armlab.model.robot.RobotArrays` ``m`` and a scratch
+workspace ``ws`` from :func:`make_workspace` (so nothing is allocated inside a call), writes
+into a caller-provided output and returns nothing.  All are ``@njit(cache=True)`` and can be
+called from other compiled code.
+
+Published API (n = number of joints; arrays float64, C-contiguous)::
+
+    make_workspace(n) -> DynamicsWorkspace                       # Python or compiled
+    rnea_into(m, ws, q, qd, qdd, gravity_scale, h_e, tau_out)    # τ of (D1), all terms
+    mass_matrix_into(m, ws, q, B_out)                            # B(q), (n, n), CRBA (D2)
+    gravity_into(m, ws, q, g_out)                                # g(q), (n,)
+    bias_into(m, ws, q, qd, h_e, out)                            # C q̇ + F_v q̇ + F_s sgn q̇ + g + Jᵀh_e
+    coriolis_matrix_into(m, ws, q, qd, C_out)                    # Christoffel C(q, q̇), (n, n) (D4)
+    forward_dynamics_into(m, ws, q, qd, tau, h_e, qdd_out)       # q̈ of (D1), Cholesky solve (D5)
+
+Arguments: q, qd, qdd, tau (n,) [m | rad, /s, /s², N | N·m]; ``h_e`` (6,) = [f_e; μ_e], the
+wrench the end effector exerts on the environment, in Σ_0, μ_e about the origin of Σ_e
+[N, N·m]; ``gravity_scale`` multiplies g_0 (1.0 with gravity, 0.0 without).
+
+The plant (Siciliano et al. §7.2–7.5; ``docs/notation.md``, section Dynamics):
+
+    B(q) q̈ + C(q, q̇) q̇ + F_v q̇ + F_s sgn(q̇) + g(q) = τ − Jᵀ(q) h_e                     (D1)
+
+Motor model (Siciliano §7.2, §7.5): the rotor of motor i sits on link i−1 (the base for
+i = 1), turns about joint i's axis z_mi at k_ri q̇_i relative to link i−1 and has the axial
+moment of inertia I_mi; its mass and transverse inertia belong to link i−1's inertial.  Its
+kinetic energy is
+
+    T_mi = ½ I_mi (z_miᵀ ω_{i−1} + k_ri q̇_i)²                                            (D3)
+
+so it adds k_ri² I_mi to B_ii, k_ri I_mi z_miᵀ z_j to B_ij (j < i, revolute) and
+I_mi z_mi z_miᵀ to link i−1's rotational inertia; in the RNEA it adds
+I_mi (ṡ_i z_mi + s_i ω_{i−1} × z_mi) to the moment of link i−1 (s_i = z_miᵀ ω_{i−1} + k_ri q̇_i)
+and k_ri I_mi ṡ_i to τ_i.  ``gear_ratio`` k_r is in rad/rad or rad/m.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+from numba import njit
+
+from armlab.model.robot import PRISMATIC
+
+
+class DynamicsWorkspace(NamedTuple):
+    """Scratch arrays of the dynamics kernels for an n-joint robot (all float64).
+
+    ``R`` (n, 3, 3), ``p`` (n, 3): J_i in J_{i−1} at the current q.  ``w``, ``wd``, ``a``,
+    ``f``, ``mu`` (n, 3): angular velocity, angular acceleration, origin acceleration, force
+    and moment of link i, in J_i.  ``Ic`` (n, 3, 3), ``hc`` (n, 3), ``mc`` (n,): composite
+    inertia about J_i's origin, first moment, mass.  ``L`` (n, n): Cholesky factor.
+    ``v1``, ``v2``, ``t1``, ``t2``, ``zero`` (n,): vectors (``zero`` stays 0).
+    ``R0`` (3, 3): rotation of the last joint frame in Σ_0.
+    """
+
+    R: np.ndarray
+    p: np.ndarray
+    w: np.ndarray
+    wd: np.ndarray
+    a: np.ndarray
+    f: np.ndarray
+    mu: np.ndarray
+    Ic: np.ndarray
+    hc: np.ndarray
+    mc: np.ndarray
+    L: np.ndarray
+    v1: np.ndarray
+    v2: np.ndarray
+    t1: np.ndarray
+    t2: np.ndarray
+    zero: np.ndarray
+    R0: np.ndarray
+
+
+@njit(cache=True)
+def make_workspace(n):
+    """A :class:`DynamicsWorkspace` for an n-joint robot."""
+    return DynamicsWorkspace(
+        np.zeros((n, 3, 3)), np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((n, 3)),
+        np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((n, 3, 3)),
+        np.zeros((n, 3)), np.zeros(n), np.zeros((n, n)), np.zeros(n), np.zeros(n),
+        np.zeros(n), np.zeros(n), np.zeros(n), np.zeros((3, 3)),
+    )
+
+
+@njit(cache=True)
+def local_transforms_into(m, q, R, p):
+    """J_i in J_{i−1}: R[i] = X_R,i M_R(q_i), p[i] = X_p,i + M_p(q_i) (K1 in joint frames)."""
+    n = q.shape[0]
+    for i in range(n):
+        value = q[i] + m.offset[i]
+        X = m.tree_R[i]
+        if m.joint_type[i] == PRISMATIC:
+            for r in range(3):
+                R[i, r, 0], R[i, r, 1], R[i, r, 2] = X[r, 0], X[r, 1], X[r, 2]
+                p[i, r] = m.tree_p[i, r] + X[r, 2] * value
+        else:
+            c, s = np.cos(value), np.sin(value)
+            for r in range(3):
+                R[i, r, 0] = X[r, 0] * c + X[r, 1] * s
+                R[i, r, 1] = X[r, 1] * c - X[r, 0] * s
+                R[i, r, 2] = X[r, 2]
+                p[i, r] = m.tree_p[i, r]
+
+
+@njit(cache=True)
+def _rnea_core(m, ws, q, qd, qdd, gravity_scale, h_e, with_wrench, with_friction, tau_out):
+    """Newton–Euler recursion (Siciliano §7.5) in joint frames; transforms already in ws."""
+    n = q.shape[0]
+    R, p, w, wd, a, f, mu = ws.R, ws.p, ws.w, ws.wd, ws.a, ws.f, ws.mu
+    # Forward: velocities and accelerations; the base accelerates by −g_0 so gravity acts
+    # on every link through its acceleration.
+    for i in range(n):
+        if i == 0:
+            wpx = wpy = wpz = 0.0
+            wdpx = wdpy = wdpz = 0.0
+            tx = -gravity_scale * m.gravity[0]
+            ty = -gravity_scale * m.gravity[1]
+            tz = -gravity_scale * m.gravity[2]
+        else:
+            wpx, wpy, wpz = w[i - 1, 0], w[i - 1, 1], w[i - 1, 2]
+            wdpx, wdpy, wdpz = wd[i - 1, 0], wd[i - 1, 1], wd[i - 1, 2]
+            px, py, pz = p[i, 0], p[i, 1], p[i, 2]
+            # ω × p
+            cx = wpy * pz - wpz * py
+            cy = wpz * px - wpx * pz
+            cz = wpx * py - wpy * px
+            tx = a[i - 1, 0] + wdpy * pz - wdpz * py + wpy * cz - wpz * cy
+            ty = a[i - 1, 1] + wdpz * px - wdpx * pz + wpz * cx - wpx * cz
+            tz = a[i - 1, 2] + wdpx * py - wdpy * px + wpx * cy - wpy * cx
+        Ri = R[i]
+        wx = Ri[0, 0] * wpx + Ri[1, 0] * wpy + Ri[2, 0] * wpz
+        wy = Ri[0, 1] * wpx + Ri[1, 1] * wpy + Ri[2, 1] * wpz
+        wz = Ri[0, 2] * wpx + Ri[1, 2] * wpy + Ri[2, 2] * wpz
+        wdx = Ri[0, 0] * wdpx + Ri[1, 0] * wdpy + Ri[2, 0] * wdpz
+        wdy = Ri[0, 1] * wdpx + Ri[1, 1] * wdpy + Ri[2, 1] * wdpz
+        wdz = Ri[0, 2] * wdpx + Ri[1, 2] * wdpy + Ri[2, 2] * wdpz
+        ax = Ri[0, 0] * tx + Ri[1, 0] * ty + Ri[2, 0] * tz
+        ay = Ri[0, 1] * tx + Ri[1, 1] * ty + Ri[2, 1] * tz
+        az = Ri[0, 2] * tx + Ri[1, 2] * ty + Ri[2, 2] * tz
+        qdi, qddi = qd[i], qdd[i]
+        if m.joint_type[i] == PRISMATIC:
+            # a += q̈ z + 2 ω × q̇ z
+            ax += 2.0 * wy * qdi
+            ay -= 2.0 * wx * qdi
+            az += qddi
+        else:
+            # ω̇ += q̈ z + ω_{i−1} × q̇ z ;  ω += q̇ z
+            wdx += wy * qdi
+            wdy -= wx * qdi
+            wdz += qddi
+            wz += qdi
+        w[i, 0], w[i, 1], w[i, 2] = wx, wy, wz
+        wd[i, 0], wd[i, 1], wd[i, 2] = wdx, wdy, wdz
+        a[i, 0], a[i, 1], a[i, 2] = ax, ay, az
+        # Link i alone: F = m a_C, μ_O = I_C ω̇ + ω × I_C ω + c × F.
+        mass = m.mass[i]
+        ccx, ccy, ccz = m.com[i, 0], m.com[i, 1], m.com[i, 2]
+        ex = wy * ccz - wz * ccy
+        ey = wz * ccx - wx * ccz
+        ez = wx * ccy - wy * ccx
+        acx = ax + wdy * ccz - wdz * ccy + wy * ez - wz * ey
+        acy = ay + wdz * ccx - wdx * ccz + wz * ex - wx * ez
+        acz = az + wdx * ccy - wdy * ccx + wx * ey - wy * ex
+        Fx, Fy, Fz = mass * acx, mass * acy, mass * acz
+        I = m.inertia[i]
+        Iwx = I[0, 0] * wx + I[0, 1] * wy + I[0, 2] * wz
+        Iwy = I[1, 0] * wx + I[1, 1] * wy + I[1, 2] * wz
+        Iwz = I[2, 0] * wx + I[2, 1] * wy + I[2, 2] * wz
+        f[i, 0], f[i, 1], f[i, 2] = Fx, Fy, Fz
+        mu[i, 0] = (I[0, 0] * wdx + I[0, 1] * wdy + I[0, 2] * wdz + wy * Iwz - wz * Iwy
+                    + ccy * Fz - ccz * Fy)
+        mu[i, 1] = (I[1, 0] * wdx + I[1, 1] * wdy + I[1, 2] * wdz + wz * Iwx - wx * Iwz
+                    + ccz * Fx - ccx * Fz)
+        mu[i, 2] = (I[2, 0] * wdx + I[2, 1] * wdy + I[2, 2] * wdz + wx * Iwy - wy * Iwx
+                    + ccx * Fy - ccy * Fx)
+    # Rotor of motor 1 sits on the fixed base: only its spin k_r q̇_1 is inertial (D3).
+    kr0 = m.gear_ratio[0]
+    tau_out[0] = kr0 * kr0 * m.rotor_inertia[0] * qdd[0]
+    for i in range(1, n):
+        # Rotor i on link i−1, axis z_mi = z of J_i seen in J_{i−1} (D3).
+        Im = m.rotor_inertia[i]
+        kr = m.gear_ratio[i]
+        if Im != 0.0:
+            zx, zy, zz = m.tree_R[i, 0, 2], m.tree_R[i, 1, 2], m.tree_R[i, 2, 2]
+            wpx, wpy, wpz = w[i - 1, 0], w[i - 1, 1], w[i - 1, 2]
+            s = zx * wpx + zy * wpy + zz * wpz + kr * qd[i]
+            sd = zx * wd[i - 1, 0] + zy * wd[i - 1, 1] + zz * wd[i - 1, 2] + kr * qdd[i]
+            mu[i - 1, 0] += Im * (sd * zx + s * (wpy * zz - wpz * zy))
+            mu[i - 1, 1] += Im * (sd * zy + s * (wpz * zx - wpx * zz))
+            mu[i - 1, 2] += Im * (sd * zz + s * (wpx * zy - wpy * zx))
+            tau_out[i] = kr * Im * sd
+        else:
+            tau_out[i] = 0.0
+    if with_wrench:
+        # The end effector pushes the environment with h_e: f_{n+1} = h_e, expressed in J_n.
+        R0 = ws.R0
+        for r in range(3):
+            for c in range(3):
+                R0[r, c] = R[0, r, c]
+        for i in range(1, n):
+            Ri = R[i]
+            for r in range(3):
+                b0, b1, b2 = R0[r, 0], R0[r, 1], R0[r, 2]
+                R0[r, 0] = b0 * Ri[0, 0] + b1 * Ri[1, 0] + b2 * Ri[2, 0]
+                R0[r, 1] = b0 * Ri[0, 1] + b1 * Ri[1, 1] + b2 * Ri[2, 1]
+                R0[r, 2] = b0 * Ri[0, 2] + b1 * Ri[1, 2] + b2 * Ri[2, 2]
+        fx = R0[0, 0] * h_e[0] + R0[1, 0] * h_e[1] + R0[2, 0] * h_e[2]
+        fy = R0[0, 1] * h_e[0] + R0[1, 1] * h_e[1] + R0[2, 1] * h_e[2]
+        fz = R0[0, 2] * h_e[0] + R0[1, 2] * h_e[1] + R0[2, 2] * h_e[2]
+        mx = R0[0, 0] * h_e[3] + R0[1, 0] * h_e[4] + R0[2, 0] * h_e[5]
+        my = R0[0, 1] * h_e[3] + R0[1, 1] * h_e[4] + R0[2, 1] * h_e[5]
+        mz = R0[0, 2] * h_e[3] + R0[1, 2] * h_e[4] + R0[2, 2] * h_e[5]
+        tpx, tpy, tpz = m.tool_p[0], m.tool_p[1], m.tool_p[2]
+        k = n - 1
+        f[k, 0] += fx
+        f[k, 1] += fy
+        f[k, 2] += fz
+        mu[k, 0] += mx + tpy * fz - tpz * fy
+        mu[k, 1] += my + tpz * fx - tpx * fz
+        mu[k, 2] += mz + tpx * fy - tpy * fx
+    # Backward: add the wrench of link i+1 (in J_i) and project on joint i's axis z.
+    for i in range(n - 1, -1, -1):
+        if i < n - 1:
+            Rc = R[i + 1]
+            cfx, cfy, cfz = f[i + 1, 0], f[i + 1, 1], f[i + 1, 2]
+            cmx, cmy, cmz = mu[i + 1, 0], mu[i + 1, 1], mu[i + 1, 2]
+            gx = Rc[0, 0] * cfx + Rc[0, 1] * cfy + Rc[0, 2] * cfz
+            gy = Rc[1, 0] * cfx + Rc[1, 1] * cfy + Rc[1, 2] * cfz
+            gz = Rc[2, 0] * cfx + Rc[2, 1] * cfy + Rc[2, 2] * cfz
+            px, py, pz = p[i + 1, 0], p[i + 1, 1], p[i + 1, 2]
+            f[i, 0] += gx
+            f[i, 1] += gy
+            f[i, 2] += gz
+            mu[i, 0] += Rc[0, 0] * cmx + Rc[0, 1] * cmy + Rc[0, 2] * cmz + py * gz - pz * gy
+            mu[i, 1] += Rc[1, 0] * cmx + Rc[1, 1] * cmy + Rc[1, 2] * cmz + pz * gx - px * gz
+            mu[i, 2] += Rc[2, 0] * cmx + Rc[2, 1] * cmy + Rc[2, 2] * cmz + px * gy - py * gx
+        if m.joint_type[i] == PRISMATIC:
+            tau_out[i] += f[i, 2]
+        else:
+            tau_out[i] += mu[i, 2]
+        if with_friction:
+            v = qd[i]
+            tau_out[i] += m.viscous[i] * v
+            if v > 0.0:
+                tau_out[i] += m.coulomb[i]
+            elif v < 0.0:
+                tau_out[i] -= m.coulomb[i]
+
+
+@njit(cache=True)
+def _has_wrench(h_e):
+    for k in range(6):
+        if h_e[k] != 0.0:
+            return True
+    return False
+
+
+@njit(cache=True)
+def rnea_into(m, ws, q, qd, qdd, gravity_scale, h_e, tau_out):
+    """Inverse dynamics τ of (D1) with every term, by recursive Newton–Euler.
+
+        τ = B q̈ + C q̇ + F_v q̇ + F_s sgn q̇ + g_s + Jᵀ h_e ,  g_s = g(q) · gravity_scale   (D1)
+
+    q, qd, qdd (n,); h_e (6,) in Σ_0; tau_out (n,) [N | N·m].
+    """
+    local_transforms_into(m, q, ws.R, ws.p)
+    _rnea_core(m, ws, q, qd, qdd, gravity_scale, h_e, _has_wrench(h_e), True, tau_out)
+
+
+@njit(cache=True)
+def gravity_into(m, ws, q, g_out):
+    """Gravity torque g(q) = ∂U/∂q, (n,) [N | N·m] (RNEA with q̇ = q̈ = 0)."""
+    local_transforms_into(m, q, ws.R, ws.p)
+    z = ws.zero
+    _rnea_core(m, ws, q, z, z, 1.0, ws.R0[0], False, False, g_out)
+
+
+@njit(cache=True)
+def bias_into(m, ws, q, qd, h_e, out):
+    """Everything but inertia: C q̇ + F_v q̇ + F_s sgn q̇ + g + Jᵀ h_e, (n,) (RNEA with q̈ = 0)."""
+    local_transforms_into(m, q, ws.R, ws.p)
+    _rnea_core(m, ws, q, qd, ws.zero, 1.0, h_e, _has_wrench(h_e), True, out)
+
+
+@njit(cache=True)
+def mass_matrix_into(m, ws, q, B_out):
+    """Joint-space inertia matrix B(q), (n, n), by the composite-rigid-body algorithm.
+
+        B_ij = s_jᵀ Iᶜ_j s_i (j ≤ i), plus the rotor terms of (D3)                    (D2)
+
+    Iᶜ_i is the inertia of links i…n (and their rotors) about J_i's origin, kept as mass,
+    first moment h and rotational inertia: moving a body by (R, p) gives h' = R h + M p,
+    I' = R I Rᵀ − S(p) S(Rh) − S(Rh) S(p) − M S(p)².
+    """
+    n = q.shape[0]
+    R, p, Ic, hc, mc = ws.R, ws.p, ws.Ic, ws.hc, ws.mc
+    local_transforms_into(m, q, R, p)
+    for i in range(n):
+        mass = m.mass[i]
+        cx, cy, cz = m.com[i, 0], m.com[i, 1], m.com[i, 2]
+        mc[i] = mass
+        hc[i, 0], hc[i, 1], hc[i, 2] = mass * cx, mass * cy, mass * cz
+        # Steiner to J_i's origin: I_O = I_C + m (cᵀc 1 − c cᵀ)
+        cc = cx * cx + cy * cy + cz * cz
+        for r in range(3):
+            for c in range(3):
+                Ic[i, r, c] = m.inertia[i, r, c] - mass * m.com[i, r] * m.com[i, c]
+            Ic[i, r, r] += mass * cc
+        if i + 1 < n:
+            # Rotor i+1 turns with link i about its own axis too (D3).
+            Im = m.rotor_inertia[i + 1]
+            for r in range(3):
+                for c in range(3):
+                    Ic[i, r, c] += Im * m.tree_R[i + 1, r, 2] * m.tree_R[i + 1, c, 2]
+    for i in range(n - 1, 0, -1):
+        Rc = R[i]
+        M = mc[i]
+        px, py, pz = p[i, 0], p[i, 1], p[i, 2]
+        # Rh
+        hx = Rc[0, 0] * hc[i, 0] + Rc[0, 1] * hc[i, 1] + Rc[0, 2] * hc[i, 2]
+        hy = Rc[1, 0] * hc[i, 0] + Rc[1, 1] * hc[i, 1] + Rc[1, 2] * hc[i, 2]
+        hz = Rc[2, 0] * hc[i, 0] + Rc[2, 1] * hc[i, 1] + Rc[2, 2] * hc[i, 2]
+        # R I Rᵀ
+        for r in range(3):
+            t0 = Rc[r, 0] * Ic[i, 0, 0] + Rc[r, 1] * Ic[i, 1, 0] + Rc[r, 2] * Ic[i, 2, 0]
+            t1 = Rc[r, 0] * Ic[i, 0, 1] + Rc[r, 1] * Ic[i, 1, 1] + Rc[r, 2] * Ic[i, 2, 1]
+            t2 = Rc[r, 0] * Ic[i, 0, 2] + Rc[r, 1] * Ic[i, 1, 2] + Rc[r, 2] * Ic[i, 2, 2]
+            for c in range(3):
+                Ic[i - 1, r, c] += t0 * Rc[c, 0] + t1 * Rc[c, 1] + t2 * Rc[c, 2]
+        # −S(p)S(u) − S(u)S(p) = 2(pᵀu) 1 − p uᵀ − u pᵀ with u = Rh + M p/2 covers the M S(p)² term.
+        ux, uy, uz = hx + 0.5 * M * px, hy + 0.5 * M * py, hz + 0.5 * M * pz
+        pu = px * ux + py * uy + pz * uz
+        Ic[i - 1, 0, 0] += 2.0 * pu - 2.0 * px * ux
+        Ic[i - 1, 1, 1] += 2.0 * pu - 2.0 * py * uy
+        Ic[i - 1, 2, 2] += 2.0 * pu - 2.0 * pz * uz
+        o01 = -(px * uy + ux * py)
+        o02 = -(px * uz + ux * pz)
+        o12 = -(py * uz + uy * pz)
+        Ic[i - 1, 0, 1] += o01
+        Ic[i - 1, 1, 0] += o01
+        Ic[i - 1, 0, 2] += o02
+        Ic[i - 1, 2, 0] += o02
+        Ic[i - 1, 1, 2] += o12
+        Ic[i - 1, 2, 1] += o12
+        hc[i - 1, 0] += hx + M * px
+        hc[i - 1, 1] += hy + M * py
+        hc[i - 1, 2] += hz + M * pz
+        mc[i - 1] += M
+    for i in range(n):
+        # Spatial momentum (f, n about J_i's origin) of composite i moving with unit q̇_i.
+        M = mc[i]
+        hx, hy, hz = hc[i, 0], hc[i, 1], hc[i, 2]
+        if m.joint_type[i] == PRISMATIC:
+            fx, fy, fz = 0.0, 0.0, M
+            nx, ny, nz = hy, -hx, 0.0
+            B_out[i, i] = fz
+        else:
+            fx, fy, fz = -hy, hx, 0.0
+            nx, ny, nz = Ic[i, 0, 2], Ic[i, 1, 2], Ic[i, 2, 2]
+            B_out[i, i] = nz
+        kr = m.gear_ratio[i]
+        Im = m.rotor_inertia[i]
+        B_out[i, i] += kr * kr * Im
+        for j in range(i, 0, -1):
+            Rc = R[j]
+            gx = Rc[0, 0] * fx + Rc[0, 1] * fy + Rc[0, 2] * fz
+            gy = Rc[1, 0] * fx + Rc[1, 1] * fy + Rc[1, 2] * fz
+            gz = Rc[2, 0] * fx + Rc[2, 1] * fy + Rc[2, 2] * fz
+            px, py, pz = p[j, 0], p[j, 1], p[j, 2]
+            mx = Rc[0, 0] * nx + Rc[0, 1] * ny + Rc[0, 2] * nz + py * gz - pz * gy
+            my = Rc[1, 0] * nx + Rc[1, 1] * ny + Rc[1, 2] * nz + pz * gx - px * gz
+            mz = Rc[2, 0] * nx + Rc[2, 1] * ny + Rc[2, 2] * nz + px * gy - py * gx
+            if j == i:
+                # Rotor i (on link i−1) spins at k_r q̇_i about z_mi (D3).
+                mx += kr * Im * m.tree_R[i, 0, 2]
+                my += kr * Im * m.tree_R[i, 1, 2]
+                mz += kr * Im * m.tree_R[i, 2, 2]
+            fx, fy, fz, nx, ny, nz = gx, gy, gz, mx, my, mz
+            value = fz if m.joint_type[j - 1] == PRISMATIC else nz
+            B_out[j - 1, i] = value
+            B_out[i, j - 1] = value
+
+
+@njit(cache=True)
+def coriolis_matrix_into(m, ws, q, qd, C_out):
+    """Christoffel-symbol C(q, q̇), (n, n), so that Ḃ − 2C is skew-symmetric.
+
+        C_ij = Σ_k c_ijk q̇_k,  c_ijk = ½(∂B_ij/∂q_k + ∂B_ik/∂q_j − ∂B_jk/∂q_i)             (D4)
+
+    With Γ(u, u) = C(q, u) u the velocity-quadratic RNEA term (no gravity, friction, q̈ or
+    wrench), c_ijk = c_ikj makes Γ a symmetric bilinear form and C(q, q̇) e_j = Γ(e_j, q̇);
+    polarisation gives it exactly: Γ(a, b) = ¼[Γ(a + b, a + b) − Γ(a − b, a − b)].  q̇ is
+    normalised first so both arguments are of unit size (no cancellation).
+    """
+    n = q.shape[0]
+    local_transforms_into(m, q, ws.R, ws.p)
+    norm = 0.0
+    for k in range(n):
+        norm += qd[k] * qd[k]
+    norm = np.sqrt(norm)
+    if norm == 0.0:
+        for r in range(n):
+            for c in range(n):
+                C_out[r, c] = 0.0
+        return
+    u, t1, t2 = ws.v1, ws.t1, ws.t2
+    for j in range(n):
+        for k in range(n):
+            u[k] = qd[k] / norm
+        u[j] += 1.0
+        _rnea_core(m, ws, q, u, ws.zero, 0.0, ws.R0[0], False, False, t1)
+        for k in range(n):
+            u[k] = -qd[k] / norm
+        u[j] += 1.0
+        _rnea_core(m, ws, q, u, ws.zero, 0.0, ws.R0[0], False, False, t2)
+        for r in range(n):
+            C_out[r, j] = 0.25 * norm * (t1[r] - t2[r])
+
+
+@njit(cache=True)
+def cholesky_solve_inplace(A, b):
+    """b ← A⁻¹ b for symmetric positive-definite A (n, n), overwriting A's lower triangle with
+    its Cholesky factor L (A = L Lᵀ).  Returns False if A is not positive definite."""
+    n = b.shape[0]
+    for j in range(n):
+        d = A[j, j]
+        for k in range(j):
+            d -= A[j, k] * A[j, k]
+        if d <= 0.0:
+            return False
+        d = np.sqrt(d)
+        A[j, j] = d
+        for i in range(j + 1, n):
+            s = A[i, j]
+            for k in range(j):
+                s -= A[i, k] * A[j, k]
+            A[i, j] = s / d
+    for i in range(n):
+        s = b[i]
+        for k in range(i):
+            s -= A[i, k] * b[k]
+        b[i] = s / A[i, i]
+    for i in range(n - 1, -1, -1):
+        s = b[i]
+        for k in range(i + 1, n):
+            s -= A[k, i] * b[k]
+        b[i] = s / A[i, i]
+    return True
+
+
+@njit(cache=True)
+def forward_dynamics_into(m, ws, q, qd, tau, h_e, qdd_out):
+    """Joint accelerations of (D1): B q̈ = τ − (C q̇ + F_v q̇ + F_s sgn q̇ + g + Jᵀ h_e).  (D5)
+
+    B from the CRBA, then an in-place Cholesky solve in ``ws.L`` (no inverse, no allocation).
+    Returns False (and leaves qdd_out undefined) if B is not positive definite.
+    """
+    n = q.shape[0]
+    bias_into(m, ws, q, qd, h_e, qdd_out)
+    for k in range(n):
+        qdd_out[k] = tau[k] - qdd_out[k]
+    mass_matrix_into(m, ws, q, ws.L)
+    return cholesky_solve_inplace(ws.L, qdd_out)
