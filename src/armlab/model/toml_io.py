@@ -20,7 +20,7 @@ import numpy as np
 from armlab.errors import ArmlabError
 from armlab.model.inertia import box_inertia, cylinder_inertia, inertia_problem, sphere_inertia, steiner
 from armlab.model.robot import DHRow, Friction, Inertial, Joint, Link, Motor, Robot
-from armlab.spatial import rotation_to_axis, rpy_matrix, transform
+from armlab.spatial import rpy_matrix, skew, transform
 
 
 class RobotFileError(ArmlabError, ValueError):
@@ -36,6 +36,24 @@ _BINARY = {ast.Add: operator.add, ast.Sub: operator.sub, ast.Mult: operator.mul,
 _UNARY = {ast.UAdd: operator.pos, ast.USub: operator.neg}
 _FUNCTIONS = {"sqrt": math.sqrt, "sin": math.sin, "cos": math.cos, "tan": math.tan}
 _CONSTANTS = {"pi": math.pi}
+
+
+def axis_alignment(axis) -> np.ndarray:
+    """R_axis, (3, 3): the smallest rotation turning z onto the unit vector of ``axis`` (3,).
+
+    A joint with axis a is placed as P = origin · R_axis, S = R_axisᵀ, so that its joint frame
+    has z = a; R_axis = I for a = z, so a z-axis joint's joint frame is its link frame.
+    Rodrigues' formula with v = z × a, c = z · a:  R = I + S(v) + S(v)² / (1 + c).
+    """
+    a = np.asarray(axis, dtype=float)
+    a = a / np.linalg.norm(a)
+    c = a[2]
+    if c < -1.0 + 1e-12:
+        # a = −z: any half turn about a horizontal axis; take x.
+        return np.diag([1.0, -1.0, -1.0])
+    v = np.array([-a[1], a[0], 0.0])
+    S = skew(v)
+    return np.eye(3) + S + S @ S / (1.0 + c)
 
 
 def evaluate_expression(text: str, names: dict[str, float]) -> float:
@@ -246,7 +264,7 @@ def _joint(reader: _Reader, table: dict, index: int, convention: str) -> tuple[J
         axis = reader.vector(table.get("axis", [0, 0, 1]), f"{field}.axis", 3)
         if np.linalg.norm(axis) < 1e-9:
             reader.fail(f"{field}.axis", "must be a non-zero vector")
-        align = transform(rotation_to_axis(axis))
+        align = transform(axis_alignment(axis))
         joint = Joint(name=name, kind=kind, before=origin @ align, after=np.linalg.inv(align), **common)
     else:
         reader.fail(field, "needs a placement: dh = {a, alpha, d, theta} or origin/axis")

@@ -29,13 +29,19 @@ transforms from the root up to it form the base transform T_base0.
 
 from __future__ import annotations
 
+import math
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import numpy as np
 
-from armlab.model.robot import Robot
-from armlab.spatial import rpy_from_matrix, transform
+from armlab.model.inertia import inertia_problem, steiner
+from armlab.model.robot import Friction, Inertial, Joint, Link, Robot
+from armlab.model.toml_io import RobotFileError, axis_alignment
+from armlab.spatial import inverse_transform, rpy_from_matrix, transform
+
+STANDARD_GRAVITY = np.array([0.0, 0.0, -9.81])
+"""URDF has no gravity element; by convention the root frame's z axis points up [m/s²]."""
 
 
 def _fmt(values) -> str:
@@ -138,3 +144,243 @@ def save_urdf(robot: Robot, path: str | Path) -> Path:
     path = Path(path)
     path.write_text(to_urdf(robot), encoding="utf-8")
     return path
+
+
+# ----------------------------------------------------------------------------------- import
+_MOVING = {"revolute": "revolute", "continuous": "revolute", "prismatic": "prismatic"}
+
+
+def _fail(path, field: str, reason: str):
+    raise RobotFileError(path, field, reason)
+
+
+def _parse(path: Path):
+    """The ``yourdfpy`` robot of ``path``; unreadable or malformed files fail in one line."""
+    import yourdfpy
+
+    try:
+        text = path.read_text(encoding="utf-8")
+    except OSError as error:
+        _fail(path, "file", f"cannot be read ({error.strerror})")
+    except UnicodeDecodeError:
+        _fail(path, "file", "is not UTF-8 text")
+    try:
+        # yourdfpy recovers silently from some XML errors; a strict parse first reports them.
+        ET.fromstring(text)
+    except ET.ParseError as error:
+        _fail(path, "xml", f"not well-formed XML ({error})")
+    try:
+        urdf = yourdfpy.URDF.load(str(path), build_scene_graph=False, load_meshes=False,
+                                  build_collision_scene_graph=False, load_collision_meshes=False)
+    except Exception as error:  # yourdfpy raises plain ValueError/TypeError on bad attributes
+        _fail(path, "urdf", " ".join(str(error).split()) or type(error).__name__)
+    return urdf.robot
+
+
+def _number(path, field: str, value, default: float) -> float:
+    if value is None:
+        return default
+    try:
+        result = float(value)
+    except (TypeError, ValueError):
+        _fail(path, field, f"expected a number, got {value!r}")
+    if not math.isfinite(result):
+        _fail(path, field, f"is not finite ({value!r})")
+    return result
+
+
+def _chain(path, joints: dict, children: dict, root: str, tip: str | None) -> list:
+    """URDF joints on the path root → tip, choosing the tip when it is not given."""
+    parent_joint = {j.child: j for j in joints.values()}
+
+    def path_to(link):
+        chain = []
+        while link != root:
+            joint = parent_joint[link]
+            chain.append(joint)
+            link = joint.parent
+        return chain[::-1]
+
+    if tip is not None:
+        if tip not in parent_joint and tip != root:
+            _fail(path, "tip", f"no link named {tip!r}")
+        return path_to(tip)
+    moving = {name for name, j in joints.items() if j.type in _MOVING}
+    leaves = [link for link in [root, *parent_joint] if not children.get(link)]
+    full = [leaf for leaf in leaves if moving <= {j.name for j in path_to(leaf)}]
+    if not full:
+        # Two moving joints that no single root → leaf path contains: a branching tree.
+        best = max(leaves, key=lambda leaf: len(moving & {j.name for j in path_to(leaf)}))
+        off = sorted(moving - {j.name for j in path_to(best)})
+        _fail(path, f"joint[{off[0]}]",
+              f"lies on another branch than the chain root → {best}; armlab models serial "
+              "chains: pass tip= to choose one")
+    if len(full) > 1:
+        _fail(path, "tip", f"the chain ends in several links ({', '.join(sorted(full))}); "
+              "pass tip= to choose one")
+    return path_to(full[0])
+
+
+def _axis_alignment(path, joint) -> np.ndarray:
+    axis = np.asarray(joint.axis if joint.axis is not None else (1.0, 0.0, 0.0), dtype=float)
+    if axis.shape != (3,) or not np.all(np.isfinite(axis)) or np.linalg.norm(axis) < 1e-9:
+        _fail(path, f"joint[{joint.name}].axis", f"must be a non-zero 3-vector, got {axis.tolist()}")
+    return transform(axis_alignment(axis))
+
+
+def load_urdf(path: str | Path, *, tip: str | None = None, gravity=None,
+              name: str | None = None) -> Robot:
+    """Load the serial chain root → ``tip`` of a URDF file as a :class:`Robot`.
+
+    Parameters
+    ----------
+    path : str or Path
+        The URDF file.
+    tip : str, optional
+        Name of the link that carries the end effector Σ_e.  By default the only leaf link whose
+        path from the root holds every moving joint; when several leaves qualify (e.g. a flange
+        and a tool frame) or the moving joints lie on different branches, a
+        :class:`RobotFileError` asks for ``tip``.
+    gravity : array_like (3,), optional
+        g_0 in Σ_0 [m/s²].  By default (0, 0, −9.81) in the root frame (URDF's z-up
+        convention), rotated into Σ_0.
+    name : str, optional
+        The robot's name; the URDF's ``<robot name>`` by default.
+
+    Returns
+    -------
+    Robot
+        Joints in URDF form (P_i = fixed transforms · origin · R_axis, S_i = R_axisᵀ), so the
+        link frames Σ_i are the URDF links moved by the joints; Σ_0 is the link carrying the
+        first moving joint and ``base`` the fixed transform root → Σ_0; ``tool`` the fixed
+        transform Σ_n → ``tip``.  Fixed children are merged into the moving link that carries
+        them (Steiner); ``<dynamics damping friction>`` become viscous and Coulomb friction;
+        URDF has no motors.
+    """
+    path = Path(path)
+    urdf = _parse(path)
+    links = {link.name: link for link in urdf.links}
+    joints = {}
+    children: dict[str, list] = {}
+    for joint in urdf.joints:
+        field = f"joint[{joint.name}]"
+        if joint.name in joints:
+            _fail(path, field, "duplicate joint name")
+        if joint.type not in (*_MOVING, "fixed"):
+            _fail(path, f"{field}.type", f"{joint.type} joints are not supported "
+                  "(armlab models fixed-base serial chains of revolute and prismatic joints)")
+        if joint.mimic is not None:
+            _fail(path, f"{field}.mimic", "mimic joints are not supported (every joint is a "
+                  "degree of freedom in armlab)")
+        for role in ("parent", "child"):
+            if getattr(joint, role) not in links:
+                _fail(path, f"{field}.{role}", f"no link named {getattr(joint, role)!r}")
+        if any(j.child == joint.child for j in joints.values()):
+            _fail(path, f"{field}.child", f"link {joint.child!r} has two parent joints")
+        joints[joint.name] = joint
+        children.setdefault(joint.parent, []).append(joint)
+    roots = sorted(set(links) - {j.child for j in joints.values()})
+    if len(roots) != 1:
+        _fail(path, "link", f"expected one root link, found {len(roots)} ({', '.join(roots)})")
+    root = roots[0]
+    chain = _chain(path, joints, children, root, tip)
+    moving = [j for j in chain if j.type in _MOVING]
+    if not moving:
+        _fail(path, "joint", f"no revolute, continuous or prismatic joint between {root!r} and the tip")
+
+    # Walk the whole tree once: each link gets its body (0 = ground, i = moving link i) and its
+    # pose in that body's frame (Σ_0 for the ground, the URDF child link of joint i otherwise).
+    on_chain = {j.name for j in chain}
+    moving_index = {j.name: i + 1 for i, j in enumerate(moving)}
+    body_of = {root: 0}
+    pose_in_body = {root: np.eye(4)}
+    sigma0 = moving[0].parent
+    placements = {}
+    stack = [root]
+    while stack:
+        link = stack.pop()
+        for joint in children.get(link, []):
+            origin = np.eye(4) if joint.origin is None else np.asarray(joint.origin, dtype=float)
+            T = pose_in_body[link] @ origin
+            if joint.type == "fixed":
+                body_of[joint.child], pose_in_body[joint.child] = body_of[link], T
+            elif joint.name in on_chain:
+                placements[joint.name] = T @ _axis_alignment(path, joint)
+                body_of[joint.child], pose_in_body[joint.child] = moving_index[joint.name], np.eye(4)
+            else:
+                _fail(path, f"joint[{joint.name}]", f"moves a branch off the chain {root} → "
+                      f"{chain[-1].child}; armlab models serial chains (choose another tip)")
+            if joint.child == sigma0:
+                # The ground frame Σ_0 starts at the first moving joint's parent link.
+                base = T
+            stack.append(joint.child)
+    if sigma0 == root:
+        base = np.eye(4)
+    ground_to_sigma0 = inverse_transform(base)
+    for link, body in body_of.items():
+        if body == 0:
+            pose_in_body[link] = ground_to_sigma0 @ pose_in_body[link]
+    first = moving[0].name
+    placements[first] = ground_to_sigma0 @ placements[first]
+
+    n = len(moving)
+    mass = np.zeros(n + 1)
+    first_moment = np.zeros((n + 1, 3))
+    inertia_origin = np.zeros((n + 1, 3, 3))
+    for link_name, body in body_of.items():
+        inertial = links[link_name].inertial
+        if inertial is None:
+            continue
+        field = f"link[{link_name}].inertial"
+        m = _number(path, f"{field}.mass", inertial.mass, 0.0)
+        if m < 0:
+            _fail(path, f"{field}.mass", f"must be non-negative, got {m:g} kg")
+        I = np.zeros((3, 3)) if inertial.inertia is None else np.asarray(inertial.inertia, dtype=float)
+        problem = inertia_problem(I)
+        if problem:
+            _fail(path, f"{field}.inertia", f"inertia {problem}")
+        origin = np.eye(4) if inertial.origin is None else np.asarray(inertial.origin, dtype=float)
+        T = pose_in_body[link_name] @ origin
+        R, c = T[:3, :3], T[:3, 3]
+        mass[body] += m
+        first_moment[body] += m * c
+        # Parallel axes: every part's inertia about its body's origin adds up.       (Steiner)
+        inertia_origin[body] += steiner(R @ I @ R.T, m, c)
+
+    robot_joints, robot_links = [], []
+    for i, joint in enumerate(moving, start=1):
+        field = f"joint[{joint.name}]"
+        kind = _MOVING[joint.type]
+        limits = (-np.inf, np.inf)
+        if joint.type != "continuous" and joint.limit is not None:
+            lower = _number(path, f"{field}.limit.lower", joint.limit.lower, -np.inf)
+            upper = _number(path, f"{field}.limit.upper", joint.limit.upper, np.inf)
+            if not lower < upper:
+                _fail(path, f"{field}.limit", f"lower limit {lower:g} must be below upper limit {upper:g}")
+            limits = (lower, upper)
+        dynamics = joint.dynamics
+        viscous = _number(path, f"{field}.dynamics.damping", getattr(dynamics, "damping", None), 0.0)
+        coulomb = _number(path, f"{field}.dynamics.friction", getattr(dynamics, "friction", None), 0.0)
+        for key, value in (("damping", viscous), ("friction", coulomb)):
+            if value < 0:
+                _fail(path, f"{field}.dynamics.{key}", f"must be non-negative, got {value:g}")
+        align = _axis_alignment(path, joint)
+        robot_joints.append(Joint(name=joint.name, kind=kind, before=placements[joint.name],
+                                  after=inverse_transform(align), limits=limits,
+                                  friction=Friction(viscous=viscous, coulomb=coulomb)))
+        com = first_moment[i] / mass[i] if mass[i] > 0 else np.zeros(3)
+        inertia = steiner(inertia_origin[i], -mass[i], com)
+        robot_links.append(Link(name=joint.child, inertial=Inertial(mass=mass[i], com=com,
+                                                                    inertia=inertia)))
+    tip_link = chain[-1].child
+    tool = pose_in_body[tip_link]
+    if gravity is None:
+        g0 = base[:3, :3].T @ STANDARD_GRAVITY
+    else:
+        g0 = np.asarray(gravity, dtype=float)
+        if g0.shape != (3,):
+            raise ValueError(f"gravity must have shape (3,), got {g0.shape}")
+    return Robot(name=name or urdf.name or path.stem, joints=tuple(robot_joints),
+                 links=tuple(robot_links), gravity=g0, base=base, tool=tool,
+                 description=f"{urdf.name}: chain {root} → {tip_link} of a URDF file",
+                 source=str(path))
