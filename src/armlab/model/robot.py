@@ -23,6 +23,7 @@ from typing import Literal, NamedTuple
 
 import numpy as np
 
+from armlab.model.inertia import steiner
 from armlab.spatial import hom_rot_x, hom_rot_z, trans_x, trans_z
 
 REVOLUTE, PRISMATIC = 0, 1
@@ -53,14 +54,18 @@ class DHRow:
 @dataclass(frozen=True)
 class Motor:
     """Joint actuator: rotor of inertia ``rotor_inertia`` I_m [kg·m²] about the joint axis,
-    geared by ``gear_ratio`` k_r (rotor angle = k_r · q; [rad/rad] or [rad/m]).
+    geared by ``gear_ratio`` k_r (rotor angle = k_r · q; [rad/rad] or [rad/m]), total
+    (stator + rotor) ``mass`` m_m [kg].
 
-    The rotor of motor i sits on link i−1 (Siciliano et al. §7.2), so its reflected inertia
-    k_r² I_m and its gyroscopic coupling with link i−1 enter the dynamics.
+    Motor i sits on link i−1 at the origin of joint i (Siciliano et al. §7.2), so its reflected
+    inertia k_r² I_m and its gyroscopic coupling with link i−1 enter the dynamics, and its mass
+    is carried by link i−1 (:attr:`Robot.arrays` lumps it there as a point mass; motor 1 sits
+    on the fixed base and its mass drops out).
     """
 
     gear_ratio: float = 1.0
     rotor_inertia: float = 0.0
+    mass: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -158,7 +163,8 @@ class RobotArrays(NamedTuple):
     * ``offset`` (n,): joint offsets added to q before M_i;
     * ``tool_R`` (3, 3), ``tool_p`` (3,): S_n · T_tool, from J_n to the end effector Σ_e;
     * ``base_R`` (3, 3), ``base_p`` (3,): T_base0, Σ_0 in Σ_base;
-    * ``mass`` (n,), ``com`` (n, 3), ``inertia`` (n, 3, 3): link i in J_i, about its COM;
+    * ``mass`` (n,), ``com`` (n, 3), ``inertia`` (n, 3, 3): link i in J_i, about its COM,
+      with the mass of motor i + 1 lumped in (see :class:`Motor`);
     * ``gear_ratio``, ``rotor_inertia``, ``viscous``, ``coulomb``, ``q_min``, ``q_max`` (n,);
     * ``gravity`` (3,): g_0 in Σ_0 [m/s²].
     """
@@ -181,6 +187,22 @@ class RobotArrays(NamedTuple):
     q_min: np.ndarray
     q_max: np.ndarray
     gravity: np.ndarray
+
+
+def _lump_point_mass(mass, com, inertia, link, point_mass, point):
+    """Add ``point_mass`` [kg] at ``point`` (3,) [m] to ``link`` of the (n,), (n, 3), (n, 3, 3)
+    arrays, in place, keeping the inertia about the (new) centre of mass:
+
+        m' = m + m_m,   c' = (m c + m_m p) / m',
+        I' = I + m Sᵀ(c − c') S(c − c') + m_m Sᵀ(p − c') S(p − c')          (Steiner)
+    """
+    if point_mass == 0.0:
+        return
+    total = mass[link] + point_mass
+    new_com = (mass[link] * com[link] + point_mass * point) / total
+    inertia[link] = steiner(steiner(inertia[link], mass[link], com[link] - new_com),
+                            point_mass, point - new_com)
+    mass[link], com[link] = total, new_com
 
 
 @dataclass(frozen=True)
@@ -266,6 +288,9 @@ class Robot:
             com[i] = R_after @ link.inertial.com + p_after
             inertia[i] = R_after @ link.inertial.inertia @ R_after.T
         tool = previous_after @ self.tool
+        mass = np.array([lk.inertial.mass for lk in self.links])
+        for i in range(1, n):
+            _lump_point_mass(mass, com, inertia, i - 1, self.joints[i].motor.mass, tree[i, :3, 3])
         arrays = RobotArrays(
             joint_type=np.array([JOINT_KINDS[j.kind] for j in self.joints], dtype=np.int64),
             tree_R=np.ascontiguousarray(tree[:, :3, :3]),
@@ -275,7 +300,7 @@ class Robot:
             tool_p=np.ascontiguousarray(tool[:3, 3]),
             base_R=np.ascontiguousarray(self.base[:3, :3]),
             base_p=np.ascontiguousarray(self.base[:3, 3]),
-            mass=np.array([lk.inertial.mass for lk in self.links]),
+            mass=mass,
             com=com,
             inertia=inertia,
             gear_ratio=np.array([j.motor.gear_ratio for j in self.joints]),

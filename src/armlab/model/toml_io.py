@@ -77,10 +77,15 @@ def evaluate_expression(text: str, names: dict[str, float]) -> float:
             if node.id in _CONSTANTS:
                 return _CONSTANTS[node.id]
             raise ValueError(f"unknown name {node.id!r}")
-        if (isinstance(node, ast.Call) and isinstance(node.func, ast.Name)
-                and node.func.id in _FUNCTIONS and len(node.args) == 1 and not node.keywords):
+        if isinstance(node, ast.Call) and isinstance(node.func, ast.Name):
+            if node.func.id not in _FUNCTIONS:
+                raise ValueError(f"unknown function {node.func.id!r} "
+                                 f"(allowed: {', '.join(sorted(_FUNCTIONS))})")
+            if len(node.args) != 1 or node.keywords:
+                raise ValueError(f"{node.func.id}() takes one argument")
             return _FUNCTIONS[node.func.id](walk(node.args[0]))
-        raise ValueError(f"unsupported expression element {ast.dump(node)[:40]}")
+        raise ValueError(f"unsupported expression element {type(node).__name__} in {text!r} "
+                         "(use numbers, parameter names, + − * / **, sqrt, sin, cos, tan, pi)")
 
     try:
         tree = ast.parse(text.strip(), mode="eval")
@@ -125,6 +130,11 @@ class _Reader:
         if not isinstance(value, list) or len(value) != 3:
             self.fail(field, "expected a 3×3 matrix (three rows of three numbers)")
         return np.array([self.vector(row, f"{field}[{k}]", 3) for k, row in enumerate(value)])
+
+    def name(self, value, field: str) -> str:
+        if not isinstance(value, str) or not value.strip():
+            self.fail(field, f"expected a non-empty string, got {value!r}")
+        return value
 
     def table(self, value, field: str) -> dict:
         if not isinstance(value, dict):
@@ -226,18 +236,23 @@ def _joint(reader: _Reader, table: dict, index: int, convention: str) -> tuple[J
     reader.table(table, field)
     reader.only(table, field, {"name", "type", "dh", "origin", "axis", "limits", "motor",
                                "friction", "link"})
-    name = table.get("name", f"joint{index + 1}")
+    name = reader.name(table.get("name", f"joint{index + 1}"), f"{field}.name")
     kind = table.get("type")
     if kind not in ("revolute", "prismatic"):
         reader.fail(f"{field}.type", f"unknown joint type {kind!r} (use revolute or prismatic)")
     motor_table = reader.table(table.get("motor", {}), f"{field}.motor")
-    reader.only(motor_table, f"{field}.motor", {"gear_ratio", "rotor_inertia"})
+    reader.only(motor_table, f"{field}.motor", {"gear_ratio", "rotor_inertia", "mass"})
     motor = Motor(
         gear_ratio=reader.number(motor_table.get("gear_ratio", 1.0), f"{field}.motor.gear_ratio"),
         rotor_inertia=reader.number(motor_table.get("rotor_inertia", 0.0), f"{field}.motor.rotor_inertia"),
+        mass=reader.number(motor_table.get("mass", 0.0), f"{field}.motor.mass"),
     )
-    if motor.rotor_inertia < 0:
-        reader.fail(f"{field}.motor.rotor_inertia", f"must be non-negative, got {motor.rotor_inertia:g}")
+    if motor.gear_ratio == 0:
+        # A negative ratio is a reversing gear (PUMA 560 joints 1 and 3); zero is no gear.
+        reader.fail(f"{field}.motor.gear_ratio", "must be non-zero")
+    for key, unit in (("rotor_inertia", "kg·m²"), ("mass", "kg")):
+        if getattr(motor, key) < 0:
+            reader.fail(f"{field}.motor.{key}", f"must be non-negative, got {getattr(motor, key):g} {unit}")
     friction_table = reader.table(table.get("friction", {}), f"{field}.friction")
     reader.only(friction_table, f"{field}.friction", {"viscous", "coulomb"})
     friction = Friction(
@@ -269,7 +284,7 @@ def _joint(reader: _Reader, table: dict, index: int, convention: str) -> tuple[J
     else:
         reader.fail(field, "needs a placement: dh = {a, alpha, d, theta} or origin/axis")
     link_table = reader.table(table.get("link", {}), f"{field}.link")
-    link = Link(name=link_table.get("name", f"link{index + 1}"),
+    link = Link(name=reader.name(link_table.get("name", f"link{index + 1}"), f"{field}.link.name"),
                 inertial=_inertial(reader, link_table, f"{field}.link"))
     return joint, link
 
@@ -293,6 +308,11 @@ def robot_from_dict(data: dict, file: str = "<robot>") -> Robot:
     if not isinstance(joint_tables, list) or not joint_tables:
         reader.fail("joints", "at least one [[joints]] entry is needed")
     pairs = [_joint(reader, table, i, convention) for i, table in enumerate(joint_tables)]
+    for kind, used in (("joint", [j.name for j, _ in pairs]), ("link", [lk.name for _, lk in pairs])):
+        for i, name in enumerate(used):
+            if name in used[:i]:
+                where = f"joints[{i}].name" if kind == "joint" else f"joints[{i}].link.name"
+                reader.fail(where, f"{kind} name {name!r} is used twice")
     gravity = reader.vector(data.get("gravity", [0, 0, -9.81]), "gravity", 3)
     base = reader.pose(data.get("base", {}), "base")
     tool = reader.pose(data.get("tool", {}), "tool")

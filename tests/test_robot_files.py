@@ -1,0 +1,217 @@
+"""Robot files: motor masses lumped by hand computation, and one test per class of malformed
+input, each checking the exact one-line ``file: field: reason`` message."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import armlab
+from armlab.model.toml_io import load_robot_toml
+
+BASE = """\
+name = "t"
+
+[parameters]
+L = 0.5
+m = 1.0
+
+[[joints]]
+name = "q1"
+type = "revolute"
+dh = { a = "L", alpha = 0, d = 0, theta = 0 }
+limits = [-1, 1]
+motor = { gear_ratio = 50, rotor_inertia = 1e-4, mass = 0.3 }
+
+[joints.link]
+mass = "m"
+com = [0, 0, 0]
+inertia = [[0.1, 0, 0], [0, 0.1, 0], [0, 0, 0.1]]
+
+[[joints]]
+name = "q2"
+type = "prismatic"
+origin = { xyz = [0, 0, 0], rpy = [0, 0, 0] }
+axis = [1, 0, 0]
+friction = { viscous = 0.1, coulomb = 0.2 }
+
+[joints.link]
+mass = 0.5
+shape = { type = "box", size = [0.1, 0.1, 0.2] }
+"""
+
+
+def _write(tmp_path, text, name="robot.toml"):
+    path = tmp_path / name
+    path.write_text(text, encoding="utf-8")
+    return path
+
+
+def _edit(old, new):
+    assert BASE.count(old) == 1, old
+    return BASE.replace(old, new)
+
+
+def test_base_file_loads(tmp_path):
+    robot = load_robot_toml(_write(tmp_path, BASE))
+    assert robot.n == 2 and robot.joints[0].motor.mass == 0.3
+
+
+# case: (edited file text, field, exact reason)
+MALFORMED = {
+    "negative mass": (_edit('mass = "m"', 'mass = "-m"'),
+                      "joints[0].link.mass", "must be non-negative, got -1 kg"),
+    "inertia not PSD": (_edit("[0, 0, 0.1]]", "[0, 0, -0.1]]"), "joints[0].link.inertia",
+                        "inertia is not positive semi-definite (principal moments [-0.1, 0.1, 0.1])"),
+    "triangle inequality": (_edit("[0, 0, 0.1]]", "[0, 0, 0.3]]"), "joints[0].link.inertia",
+                            "inertia violates the triangle inequality of principal moments "
+                            "(0.1 + 0.1 < 0.3)"),
+    "asymmetric inertia": (_edit("[[0.1, 0, 0]", "[[0.1, 0.01, 0]"), "joints[0].link.inertia",
+                           "inertia is not symmetric"),
+    "inertia_origin not PSD about the COM": (
+        _edit("com = [0, 0, 0]\ninertia =", "com = [0, 0, 1]\ninertia_origin ="),
+        "joints[0].link.inertia_origin",
+        "inertia about the centre of mass is not positive semi-definite "
+        "(principal moments [-0.9, -0.9, 0.1])"),
+    "unknown joint type": (_edit('type = "revolute"', 'type = "spherical"'), "joints[0].type",
+                           "unknown joint type 'spherical' (use revolute or prismatic)"),
+    "wrong vector length": (_edit("com = [0, 0, 0]", "com = [0, 0]"), "joints[0].link.com",
+                            "expected 3 numbers, got 2"),
+    "wrong matrix shape": (_edit("[0, 0, 0.1]]", "[0, 0]]"), "joints[0].link.inertia[2]",
+                           "expected 3 numbers, got 2"),
+    "not a number": (_edit("mass = 0.5", "mass = true"), "joints[1].link.mass",
+                     "expected a number, got True"),
+    "unknown field": (_edit("mass = 0.5", "mass = 0.5\ncolour = 'red'"), "joints[1].link.colour",
+                      "unknown field (allowed: com, inertia, inertia_origin, mass, name, shape)"),
+    "unknown top-level field": ('robot_name = "x"\n' + BASE, "robot_name",
+                                "unknown field (allowed: base, description, dh_convention, gravity, "
+                                "joints, name, parameters, provenance, tool)"),
+    "bad expression": (_edit('a = "L"', 'a = "L +"'), "joints[0].dh.a", "cannot parse expression 'L +'"),
+    "unknown parameter name": (_edit('a = "L"', 'a = "L_1"'), "joints[0].dh.a", "unknown name 'L_1'"),
+    "unknown function": (_edit('a = "L"', 'a = "exp(L)"'), "joints[0].dh.a",
+                         "unknown function 'exp' (allowed: cos, sin, sqrt, tan)"),
+    "missing placement": (_edit("dh = { a = \"L\", alpha = 0, d = 0, theta = 0 }\n", ""), "joints[0]",
+                          "needs a placement: dh = {a, alpha, d, theta} or origin/axis"),
+    "missing DH entry": (_edit('dh = { a = "L", alpha = 0,', 'dh = { a = "L",'), "joints[0].dh.alpha",
+                         "missing"),
+    "both dh and origin": (_edit("limits = [-1, 1]", "limits = [-1, 1]\norigin = { xyz = [0, 0, 1] }"),
+                           "joints[0]", "give either dh or origin/axis, not both"),
+    "zero axis": (_edit("axis = [1, 0, 0]", "axis = [0, 0, 0]"), "joints[1].axis",
+                  "must be a non-zero vector"),
+    "reversed limits": (_edit("limits = [-1, 1]", "limits = [1, -1]"), "joints[0].limits",
+                        "lower limit 1 must be below upper limit -1"),
+    "unknown shape": (_edit('type = "box"', 'type = "cone"'), "joints[1].link.shape.type",
+                      "unknown shape 'cone' (use box, cylinder or sphere)"),
+    "non-positive box size": (_edit("size = [0.1, 0.1, 0.2]", "size = [0.1, 0, 0.2]"),
+                              "joints[1].link.shape.size", "edge lengths must be positive"),
+    "non-positive cylinder radius": (
+        _edit('type = "box", size = [0.1, 0.1, 0.2]', 'type = "cylinder", radius = -0.1, length = 0.2'),
+        "joints[1].link.shape.radius", "must be positive, got -0.1"),
+    "missing shape size": (_edit('type = "box", size = [0.1, 0.1, 0.2]', 'type = "sphere"'),
+                           "joints[1].link.shape.radius", "missing (a sphere needs radius)"),
+    "negative motor mass": (_edit("mass = 0.3", "mass = -0.3"), "joints[0].motor.mass",
+                            "must be non-negative, got -0.3 kg"),
+    "zero gear ratio": (_edit("gear_ratio = 50", "gear_ratio = 0"), "joints[0].motor.gear_ratio",
+                        "must be non-zero"),
+    "negative friction": (_edit("viscous = 0.1", "viscous = -0.1"), "joints[1].friction.viscous",
+                          "must be non-negative"),
+    "duplicate joint name": (_edit('name = "q2"', 'name = "q1"'), "joints[1].name",
+                             "joint name 'q1' is used twice"),
+    "empty name": (_edit('name = "q2"', 'name = ""'), "joints[1].name",
+                   "expected a non-empty string, got ''"),
+    "no joints": ('name = "t"\n', "joints", "at least one [[joints]] entry is needed"),
+    "gravity length": ("gravity = [0, -9.81]\n" + BASE, "gravity", "expected 3 numbers, got 2"),
+    "base with dh and xyz": ('base = { xyz = [0, 0, 1], dh = { a = 0, alpha = 0, d = 0, theta = 0 } }\n'
+                             + BASE, "base", "give either dh or xyz/rpy, not both"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(MALFORMED))
+def test_malformed_robot_file_gives_one_line_error(case, tmp_path):
+    text, field, reason = MALFORMED[case]
+    path = _write(tmp_path, text)
+    with pytest.raises(armlab.RobotFileError) as info:
+        armlab.load_robot(path)
+    assert str(info.value) == f"{path}: {field}: {reason}"
+    assert (info.value.file, info.value.field, info.value.reason) == (str(path), field, reason)
+
+
+def test_unreadable_file(tmp_path):
+    path = tmp_path / "absent.toml"
+    with pytest.raises(armlab.RobotFileError) as info:
+        armlab.load_robot(path)
+    assert str(info.value) == f"{path}: file: cannot be read (No such file or directory)"
+
+
+def test_toml_syntax_error(tmp_path):
+    path = _write(tmp_path, _edit('name = "t"', 'name = "t'))
+    with pytest.raises(armlab.RobotFileError) as info:
+        armlab.load_robot(path)
+    message = str(info.value)
+    assert message.startswith(f"{path}: syntax: ") and "\n" not in message
+    assert "line 1" in message
+
+
+def test_unknown_robot_name():
+    with pytest.raises(armlab.RobotFileError) as info:
+        armlab.load_robot("no_such_robot")
+    assert str(info.value).startswith("no_such_robot: name: not a bundled robot")
+
+
+# ------------------------------------------------------------------------------ motor masses
+MOTOR_ARM = """\
+name = "motor_arm"
+[[joints]]
+type = "revolute"
+dh = { a = 1.0, alpha = 0, d = 0, theta = 0 }
+motor = { gear_ratio = 100, rotor_inertia = 0.01, mass = 7.0 }
+[joints.link]
+mass = 2.0
+com = [-0.3, 0, 0]
+inertia = [[0.01, 0, 0], [0, 0.02, 0], [0, 0, 0.03]]
+[[joints]]
+type = "revolute"
+dh = { a = 1.0, alpha = 0, d = 0, theta = 0 }
+motor = { gear_ratio = 100, rotor_inertia = 0.01, mass = 1.0 }
+[joints.link]
+mass = 0.5
+com = [-0.5, 0, 0]
+"""
+
+
+def test_motor_mass_is_lumped_into_the_preceding_link(tmp_path):
+    """Hand computation (Siciliano et al. §7.2: motor i on link i−1 at joint i).
+
+    Link 1 in J_1 (= Σ_0 turned by θ1; Σ_1 = J_1 · Tx(1)): 2 kg at x = 1 − 0.3 = 0.7.
+    Motor 2: 1 kg at joint 2's origin, x = 1.  Together 3 kg at x = (1.4 + 1)/3 = 0.8;
+    Steiner: I_yy = 0.02 + 2·0.1² + 1·0.2² = 0.08, I_zz = 0.03 + 0.06 = 0.09, I_xx = 0.01.
+    Motor 1 (7 kg) stands on the fixed base and drops out."""
+    robot = load_robot_toml(_write(tmp_path, MOTOR_ARM))
+    m = robot.arrays
+    np.testing.assert_allclose(m.mass, [3.0, 0.5])
+    np.testing.assert_allclose(m.com[0], [0.8, 0, 0], atol=1e-15)
+    np.testing.assert_allclose(m.inertia[0], np.diag([0.01, 0.08, 0.09]), atol=1e-15)
+    np.testing.assert_allclose(m.com[1], [0.5, 0, 0], atol=1e-15)
+    np.testing.assert_allclose(m.inertia[1], 0.0, atol=1e-15)
+    np.testing.assert_allclose(m.gear_ratio, [100, 100])
+    np.testing.assert_allclose(m.rotor_inertia, [0.01, 0.01])
+    # The description itself keeps the link's own values.
+    assert robot.links[0].inertial.mass == 2.0
+
+
+def test_motor_mass_sits_on_the_joint_axis_of_an_oblique_joint(tmp_path):
+    """For a URDF-style joint the motor goes to the joint's origin in J_{i−1}: check the lumped
+    centre of mass against the joint origin computed from link_frames."""
+    text = MOTOR_ARM.replace('dh = { a = 1.0, alpha = 0, d = 0, theta = 0 }\nmotor = { gear_ratio = 100, '
+                             'rotor_inertia = 0.01, mass = 1.0 }',
+                             'origin = { xyz = [0.4, 0.2, -0.1], rpy = [0.3, 0.2, 0.1] }\naxis = [0, 1, 1]\n'
+                             'motor = { gear_ratio = 100, rotor_inertia = 0.01, mass = 1.0 }')
+    robot = load_robot_toml(_write(tmp_path, text))
+    q = np.array([0.7, -0.4])
+    frames = armlab.link_frames(robot, q, frame="0")
+    m = robot.arrays
+    J1 = frames[1] @ np.linalg.inv(robot.joints[0].after)
+    com_world = J1[:3, :3] @ m.com[0] + J1[:3, 3]
+    link_com = frames[1][:3, :3] @ np.array([-0.3, 0, 0]) + frames[1][:3, 3]
+    joint2_origin = frames[2][:3, 3]  # Σ_2 = J_2 · R_axisᵀ shares J_2's origin, on the axis
+    np.testing.assert_allclose(com_world, (2.0 * link_com + 1.0 * joint2_origin) / 3.0, atol=1e-14)
