@@ -3,12 +3,18 @@
 Conventions (frames, twist and wrench ordering, Euler angles, units): ``docs/notation.md``.
 """
 
+from armlab.inverse_kinematics import UnreachableTargetError as UnreachableTargetError
+from armlab.inverse_kinematics import inverse_kinematics as inverse_kinematics
+from armlab.kinematics import analytic_jacobian as analytic_jacobian
 from armlab.kinematics import forward_kinematics, geometric_jacobian, link_frames
+from armlab.kinematics import jacobian_dot_qd as jacobian_dot_qd
+from armlab.kinematics import pose_vector as pose_vector
 from armlab.model import Robot, RobotFileError
 from armlab.model.urdf_io import load_urdf as load_urdf
 from armlab.model.urdf_io import save_urdf as save_urdf
 from armlab.model.urdf_io import to_urdf as to_urdf
 from armlab.robots import bundled_robot_names, load_robot
+from armlab.spatial import RepresentationSingularityError as RepresentationSingularityError
 
 __version__ = "0.1.0"
 
