@@ -23,10 +23,26 @@ eigenvalues) for the k × n task systems of the controllers.
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 from numba import njit
 
 from armlab.kernels.dynamics import cholesky_solve_inplace
+from armlab.kernels.kinematics import (
+    analytic_jacobian_dot_qd_into,
+    analytic_jacobian_into,
+    end_effector_into,
+    geometric_jacobian_into,
+    jacobian_dot_qd_into,
+    joint_frames_into,
+)
+from armlab.spatial import (
+    euler_angles_into,
+    euler_rate_dot_times,
+    euler_rate_matrix_into,
+    euler_rates_from_omega,
+)
 
 SINGULAR_PIVOT = 1e-12
 
@@ -326,3 +342,176 @@ def det3(A):
     return (A[0, 0] * (A[1, 1] * A[2, 2] - A[1, 2] * A[2, 1])
             - A[0, 1] * (A[1, 0] * A[2, 2] - A[1, 2] * A[2, 0])
             + A[0, 2] * (A[1, 0] * A[2, 1] - A[1, 1] * A[2, 0]))
+
+
+# ------------------------------------------------------------------ controller building blocks
+
+RELATIVE, ABSOLUTE = 0, 1
+
+
+class TaskWorkspace(NamedTuple):
+    """Scratch of the task-space laws for an n-joint robot and a k-component task.
+
+    Kinematics (Σ_0): ``R`` (n, 3, 3), ``p`` (n, 3) joint frames, ``R_e`` (3, 3), ``p_e`` (3,),
+    ``J`` (6, n), ``v_e`` (6,) = J q̇, ``a0`` (6,) = J̇ q̇.  Errors: ``frame`` (24,) the target
+    frame motion, ``x_err``, ``x_err_dot``, ``c`` (6,), ``JA`` (6, n), ``x_e`` (6,) pose logged.
+    Task system: ``A`` (k, n), ``rhs`` (k,), ``G`` (n, n), ``y`` (n,), ``sv`` (n,).  Other:
+    ``vec`` (8, 3), ``mat`` (4, 3, 3), ``h`` (6,), ``h_task`` (6,), ``w6`` (6,), ``tau`` (n,),
+    ``angles`` (3,), ``T`` (3, 3).
+    """
+
+    R: np.ndarray
+    p: np.ndarray
+    R_e: np.ndarray
+    p_e: np.ndarray
+    J: np.ndarray
+    v_e: np.ndarray
+    a0: np.ndarray
+    frame: np.ndarray
+    x_err: np.ndarray
+    x_err_dot: np.ndarray
+    c: np.ndarray
+    JA: np.ndarray
+    x_e: np.ndarray
+    A: np.ndarray
+    rhs: np.ndarray
+    G: np.ndarray
+    y: np.ndarray
+    sv: np.ndarray
+    vec: np.ndarray
+    mat: np.ndarray
+    h: np.ndarray
+    h_task: np.ndarray
+    w6: np.ndarray
+    tau: np.ndarray
+    angles: np.ndarray
+    T: np.ndarray
+
+
+def task_workspace(n: int, k: int) -> TaskWorkspace:
+    """A :class:`TaskWorkspace` for n joints and k task components."""
+    return TaskWorkspace(
+        R=np.zeros((n, 3, 3)), p=np.zeros((n, 3)), R_e=np.zeros((3, 3)), p_e=np.zeros(3),
+        J=np.zeros((6, n)), v_e=np.zeros(6), a0=np.zeros(6), frame=np.zeros(24),
+        x_err=np.zeros(6), x_err_dot=np.zeros(6), c=np.zeros(6), JA=np.zeros((6, n)),
+        x_e=np.zeros(6), A=np.zeros((k, n)), rhs=np.zeros(k), G=np.zeros((n, n)), y=np.zeros(n),
+        sv=np.zeros(n), vec=np.zeros((8, 3)), mat=np.zeros((4, 3, 3)), h=np.zeros(6),
+        h_task=np.zeros(6), w6=np.zeros(6), tau=np.zeros(n), angles=np.zeros(3), T=np.zeros((3, 3)))
+
+
+@njit(cache=True)
+def measure_into(m, q, qd, ws):
+    """End-effector pose, J, twist v_e = J q̇ and J̇ q̇ (all Σ_0) into the workspace."""
+    n = q.shape[0]
+    joint_frames_into(m, q, ws.R, ws.p)
+    end_effector_into(m, ws.R[n - 1], ws.p[n - 1], ws.R_e, ws.p_e)
+    geometric_jacobian_into(m, ws.R, ws.p, ws.p_e, ws.J)
+    for i in range(6):
+        acc = 0.0
+        for j in range(n):
+            acc += ws.J[i, j] * qd[j]
+        ws.v_e[i] = acc
+    jacobian_dot_qd_into(m, ws.R, ws.p, ws.p_e, qd, ws.a0)
+
+
+@njit(cache=True)
+def absolute_error_into(frame, convention, angle_reference, qd, ws):
+    """x̃ = x_d − x_e, x̃̇ and c of x̃̈ = −J_A q̈ + c for x = [p; φ] in Σ_0 (T6).
+
+        x̃̇ = ẋ_d − J_A q̇,   c = ẍ_d − J̇_A q̇,   J_A = T_A⁻¹(φ_e) J   (Siciliano (3.66), §8.6)
+
+    φ are Euler angles ``convention`` (``spatial.ZYZ``/``RPY``); φ_d is the triple nearest to
+    ``angle_reference`` (3,) and φ_e the one nearest to φ_d, so errors never jump by 2π or
+    between branches.  φ̇_d = T⁻¹(φ_d) ω_d, φ̈_d = T⁻¹(φ_d)(ω̇_d − Ṫ φ̇_d).  Reads ws.R_e, ws.p_e,
+    ws.J, ws.a0, ws.v_e (from :func:`measure_into`); writes ws.x_err, ws.x_err_dot, ws.c,
+    ws.JA, ws.x_e.  Returns det T(φ_e) (0 at a representation singularity).
+    """
+    R_d = ws.mat[0]
+    frame_from_vector(frame, R_d)
+    phi_d = ws.vec[0]
+    rate_d = ws.vec[1]
+    acc_d = ws.vec[2]
+    euler_angles_into(R_d, convention, 0, angle_reference, phi_d)
+    euler_angles_into(ws.R_e, convention, 0, phi_d, ws.angles)
+    a, b, d = euler_rates_from_omega(phi_d, convention, frame[15], frame[16], frame[17])
+    rate_d[0], rate_d[1], rate_d[2] = a, b, d
+    t0, t1, t2 = euler_rate_dot_times(phi_d, rate_d, convention)
+    a, b, d = euler_rates_from_omega(phi_d, convention, frame[21] - t0, frame[22] - t1, frame[23] - t2)
+    acc_d[0], acc_d[1], acc_d[2] = a, b, d
+    det = analytic_jacobian_into(ws.J, ws.angles, convention, ws.JA)
+    analytic_jacobian_dot_qd_into(ws.a0, ws.JA, qd, ws.angles, convention, ws.w6)
+    n = qd.shape[0]
+    for i in range(6):
+        rate = 0.0
+        for j in range(n):
+            rate += ws.JA[i, j] * qd[j]
+        if i < 3:
+            ws.x_e[i] = ws.p_e[i]
+            ws.x_err[i] = frame[i] - ws.p_e[i]
+            ws.x_err_dot[i] = frame[12 + i] - rate
+            ws.c[i] = frame[18 + i] - ws.w6[i]
+        else:
+            ws.x_e[i] = ws.angles[i - 3]
+            ws.x_err[i] = phi_d[i - 3] - ws.angles[i - 3]
+            ws.x_err_dot[i] = rate_d[i - 3] - rate
+            ws.c[i] = acc_d[i - 3] - ws.w6[i]
+    return det
+
+
+@njit(cache=True)
+def task_error_into(mode, frame, convention, angle_reference, qd, ws):
+    """Fill ws.x_err, ws.x_err_dot, ws.c, ws.JA (and ws.x_e) for the target frame ``frame``.
+
+    ``mode`` RELATIVE: (T1)–(T4), errors in Σ_a's axes, XYZ angles of R_aᵀR_e, x_e the logged
+    [o^a_{a,e}; φ_{a,e}];  ABSOLUTE: (T6), x = [p; φ] in Σ_0.  Returns det T(φ).
+    """
+    if mode == RELATIVE:
+        relative_error_into(frame, ws.R_e, ws.p_e, ws.J, ws.v_e, ws.a0, ws.vec, ws.mat,
+                            ws.x_err, ws.x_err_dot, ws.c, ws.JA)
+        for i in range(6):
+            ws.x_e[i] = -ws.x_err[i]
+        return np.cos(ws.x_e[4])
+    return absolute_error_into(frame, convention, angle_reference, qd, ws)
+
+
+@njit(cache=True)
+def select_rows_into(task, A6, out):
+    """out (k, n) ← rows ``task`` (k,) of A6 (6, n)."""
+    for r in range(task.shape[0]):
+        for c in range(A6.shape[1]):
+            out[r, c] = A6[task[r], c]
+
+
+@njit(cache=True)
+def wrench_in_task_into(mode, convention, ws, h_e, h_out):
+    """h_A (6,), the wrench work-conjugate to the coordinates x (T7); call after
+    :func:`task_error_into`.
+
+    RELATIVE: h_A = T_Aᵀ(φ_{a,e}) blockdiag(R_aᵀ, R_aᵀ) h_e   (Siciliano (9.30));
+    ABSOLUTE: h_A = T_Aᵀ(φ_e) h_e   (power h_eᵀ v_e = h_Aᵀ ẋ with v_e = T_A ẋ).
+    """
+    R_a = ws.mat[0]
+    if mode == RELATIVE:
+        for i in range(3):
+            h_out[i] = R_a[0, i] * h_e[0] + R_a[1, i] * h_e[1] + R_a[2, i] * h_e[2]
+            ws.w6[i] = R_a[0, i] * h_e[3] + R_a[1, i] * h_e[4] + R_a[2, i] * h_e[5]
+        euler_xyz_rate_into(ws.x_e[3], ws.x_e[4], ws.T)
+    else:
+        for i in range(3):
+            h_out[i] = h_e[i]
+            ws.w6[i] = h_e[3 + i]
+        euler_rate_matrix_into(ws.angles, convention, ws.T)
+    for i in range(3):
+        h_out[3 + i] = ws.T[0, i] * ws.w6[0] + ws.T[1, i] * ws.w6[1] + ws.T[2, i] * ws.w6[2]
+
+
+@njit(cache=True)
+def log_task_signals(ws, task, signals_out, start):
+    """Write σ(J_task) (n,) and the seed's det of J's linear part (1) at ``start``; returns
+    the next free index.  ``ws.A`` must hold the selected task Jacobian."""
+    n = ws.y.shape[0]
+    singular_values_into(ws.A, ws.G, ws.sv)
+    for i in range(n):
+        signals_out[start + i] = ws.sv[i]
+    signals_out[start + n] = det3(ws.J) if n == 3 else 0.0
+    return start + n + 1

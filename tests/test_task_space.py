@@ -1,0 +1,114 @@
+"""Task-space kernels and operational-space control (seed A9, A10)."""
+
+import numpy as np
+import pytest
+
+from armlab.kernels.task_space import (
+    ABSOLUTE,
+    RELATIVE,
+    measure_into,
+    task_error_into,
+    task_workspace,
+)
+from armlab.model.robot import DHRow, Inertial, Joint, Link, Robot
+from armlab.robots import load_robot
+from armlab.spatial import ZYZ, euler_matrix, rot_x, rot_z
+from armlab.task_references import PoseReference, path_singular_values
+
+
+def six_dof_arm() -> Robot:
+    """An anthropomorphic 6R arm with a spherical wrist (Siciliano Table 2.3-like, test-only)."""
+    rows = [DHRow(0, np.pi / 2, 0.3, 0), DHRow(0.5, 0, 0, 0), DHRow(0, np.pi / 2, 0, 0),
+            DHRow(0, -np.pi / 2, 0.45, 0), DHRow(0, np.pi / 2, 0, 0), DHRow(0, 0, 0.1, 0)]
+    joints = [Joint.from_dh(f"j{i + 1}", "revolute", row) for i, row in enumerate(rows)]
+    links = [Link(f"l{i + 1}", Inertial(mass=1.0 + 0.2 * i, com=[0.01, 0.02, -0.03],
+                                         inertia=np.diag([0.02, 0.03, 0.025])))
+             for i in range(6)]
+    return Robot("arm6", tuple(joints), tuple(links), gravity=np.array([0, 0, -9.81]))
+
+
+def _error_at(robot, mode, reference, q, qd, t, angle_reference):
+    ws = task_workspace(robot.n, 6)
+    frame = reference.evaluate(t)
+    measure_into(robot.arrays, q, qd, ws)
+    task_error_into(mode, frame, ZYZ, angle_reference, qd, ws)
+    return ws.x_err.copy(), ws.x_err_dot.copy(), ws.c.copy(), ws.JA.copy()
+
+
+@pytest.mark.parametrize("mode", [RELATIVE, ABSOLUTE])
+def test_error_rates_match_finite_differences_with_moving_target(mode):
+    """x̃̇ = d/dt x̃ and x̃̈ = −J_A q̈ + c (T2–T4, T6), checked by central differences along a
+    joint motion q(t) while the target frame itself moves (rotates and accelerates)."""
+    robot = six_dof_arm()
+    R0 = rot_z(0.4) @ rot_x(2.0)
+    reference = PoseReference([0.0, 2.0], [[0.4, 0.1, 0.5], [0.2, 0.3, 0.6]],
+                              [R0, rot_z(0.9) @ R0 @ rot_x(0.5)])
+    q0 = np.array([0.2, 0.5, -0.4, 0.3, 0.9, -0.2])
+    a, w = np.array([0.3, -0.2, 0.25, 0.4, -0.3, 0.2]), np.array([1.0, 1.3, 0.7, 1.1, 0.9, 1.7])
+
+    def joint(t):
+        return q0 + a * np.sin(w * t), a * w * np.cos(w * t), -a * w * w * np.sin(w * t)
+
+    angle_reference = np.array([0.3, 1.0, -0.5])
+    t, eps = 0.8, 1e-5
+    q, qd, qdd = joint(t)
+    x, xd, c, JA = _error_at(robot, mode, reference, q, qd, t, angle_reference)
+    xp, xdp, _, _ = _error_at(robot, mode, reference, *joint(t + eps)[:2], t + eps, angle_reference)
+    xm, xdm, _, _ = _error_at(robot, mode, reference, *joint(t - eps)[:2], t - eps, angle_reference)
+    np.testing.assert_allclose(xd, (xp - xm) / (2 * eps), atol=1e-7)
+    np.testing.assert_allclose(-JA @ qdd + c, (xdp - xdm) / (2 * eps), atol=2e-6)
+    assert np.abs(x).max() > 0.05 and np.abs(c).max() > 0.05     # not a trivial configuration
+
+
+def test_relative_error_is_zero_on_target_and_small_angles_are_axis_rotations():
+    robot = load_robot("prp")
+    q = np.array([0.1, 0.3, 0.05])
+    ws = task_workspace(3, 6)
+    measure_into(robot.arrays, q, np.zeros(3), ws)
+    R_e, p_e = ws.R_e.copy(), ws.p_e.copy()
+    for R_d, expected in ((R_e, 0.0), (R_e @ rot_x(-1e-6), 1e-6)):
+        frame = PoseReference.constant(p_e - R_d[:, 1] * 0.01, R_d).evaluate(0.0)
+        task_error_into(RELATIVE, frame, ZYZ, np.zeros(3), np.zeros(3), ws)
+        # Σ_d displaced by −0.01 along its own y axis: x̃ = −o^d_{d,e} = −(0, 0.01, 0)
+        np.testing.assert_allclose(ws.x_err[:3], [0.0, -0.01, 0.0], atol=1e-12)
+        np.testing.assert_allclose(ws.x_err[3:], [-expected, 0.0, 0.0], atol=1e-12)
+
+
+def test_via_pose_reference_is_smooth_and_uses_the_geodesic():
+    R0 = euler_matrix([np.pi / 2, -np.pi / 2, 0.0], "zyz")
+    R1 = rot_z(1.2) @ R0
+    reference = PoseReference([1.0, 3.0], [[0, -0.2, 0.5], [0, -0.1, 0.4]], [R0, R1])
+    start, end = reference.evaluate(0.5), reference.evaluate(3.5)
+    np.testing.assert_allclose(start[12:], 0.0)
+    np.testing.assert_allclose(end[:3], [0, -0.1, 0.4])
+    np.testing.assert_allclose(end[3:12].reshape(3, 3), R1, atol=1e-12)
+    # halfway: half the rotation about the fixed axis z_0, ω along z_0 only
+    mid = reference.evaluate(2.0)
+    np.testing.assert_allclose(mid[3:12].reshape(3, 3), rot_z(0.6) @ R0, atol=1e-12)
+    np.testing.assert_allclose(mid[15:17], 0.0, atol=1e-15)
+    eps = 1e-6
+    for t in (1.3, 2.0, 2.7):
+        d = (reference.evaluate(t + eps) - reference.evaluate(t - eps)) / (2 * eps)
+        f = reference.evaluate(t)
+        np.testing.assert_allclose(d[:3], f[12:15], atol=1e-8)      # ȯ_d
+        np.testing.assert_allclose(d[12:15], f[18:21], atol=1e-6)   # ö_d
+        np.testing.assert_allclose(d[15:18], f[21:24], atol=1e-6)   # ω̇_d
+        Rdot = d[3:12].reshape(3, 3)
+        R = f[3:12].reshape(3, 3)
+        w = f[15:18]
+        skew = np.array([[0, -w[2], w[1]], [w[2], 0, -w[0]], [-w[1], w[0], 0]])
+        np.testing.assert_allclose(Rdot, skew @ R, atol=1e-8)       # Ṙ = S(ω) R
+
+
+def test_path_check_flags_a_segment_through_the_prp_singular_axis():
+    """The seed's A10 goals keep the PRP's radius ≥ 0.1 m (σ_min bounded away from 0), while a
+    straight segment between two poses on opposite sides of the z_0 axis crosses its singular
+    set: interpolation cannot see that, the path check does."""
+    robot = load_robot("prp")
+    R0 = euler_matrix([np.pi / 2, -np.pi / 2, 0.0], "zyz")
+    seed_path = PoseReference([0, 5, 10], [[0, -0.2, 0.5], [0, -0.1, 0.5], [0, -0.1, 0.4]], [R0] * 3)
+    _, sigma = path_singular_values(robot, seed_path, [0.1, 0.0, 0.0], samples=60)
+    assert sigma.min() > 0.09
+    crossing = PoseReference([0, 5], [[0.05, -0.15, 0.5], [-0.05, 0.15, 0.5]], [R0, R0])
+    _, sigma = path_singular_values(robot, crossing, [0.1, -0.3, 0.04], samples=61)
+    assert sigma.min() < 1e-3
