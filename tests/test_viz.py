@@ -1,0 +1,118 @@
+"""Robot drawing, animation and scope plots: what is drawn is where kinematics says it is."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import armlab
+from armlab.spatial import inverse_transform
+from armlab.viz import Plane, draw_robot
+from armlab.viz.animation import AnimationError, animate_robot
+
+
+def _drawn_triads(fig) -> dict[str, dict[str, np.ndarray]]:
+    """{frame name: {axis: (2, 3) start and tip}} read back from the figure's line artists."""
+    ax = fig.axes[0]
+    triads: dict[str, dict[str, np.ndarray]] = {}
+    for line in ax.lines:
+        gid = line.get_gid() or ""
+        if gid.startswith("frame:"):
+            _, name, axis = gid.split(":")
+            triads.setdefault(name, {})[axis] = np.array(line.get_data_3d()).T
+    return triads
+
+
+@pytest.mark.parametrize("frame", ["base", "0"])
+def test_prp_drawn_frames_match_forward_kinematics(frame):
+    """The seed's plotTransforms check: each triad starts at the frame origin of link_frames
+    and its x, y, z lines point along the columns of the frame's rotation."""
+    robot = armlab.load_robot("prp")
+    q = np.array([0.1, np.pi / 3, 0.1])  # the seed's A1 pose
+    fig = draw_robot(robot, q, frame=frame)
+    length = fig.robot_artist.axis_length
+    triads = _drawn_triads(fig)
+    frames = armlab.link_frames(robot, q, frame=frame)
+    expected = {"0": frames[0], "1": frames[1], "2": frames[2], "3=e": frames[3]}
+    expected["base"] = np.eye(4) if frame == "base" else inverse_transform(robot.base)
+    assert np.allclose(frames[3], frames[4])  # the PRP's tool is the identity: Σ_3 = Σ_e
+    assert set(triads) == set(expected)
+    for name, pose in expected.items():
+        for k, axis in enumerate("xyz"):
+            start, tip = triads[name][axis]
+            assert np.allclose(start, pose[:3, 3], atol=1e-12), (name, axis)
+            assert np.allclose((tip - start) / length, pose[:3, k], atol=1e-12), (name, axis)
+
+
+def test_prp_closed_form_frames_in_base():
+    """Σ_0 and Σ_e in Σ_base against the seed's A1 matrices (T_0^base and T_3^base) at the
+    A1 pose, with the prp.toml lengths L0 = 0.5, L2 = 0.4, L3 = 0.2, L4 = 0.4 m."""
+    robot = armlab.load_robot("prp")
+    d1, th2, d3 = 0.1, np.pi / 3, 0.1
+    L0, L2, L3, L4 = 0.5, 0.4, 0.2, 0.4
+    fig = draw_robot(robot, [d1, th2, d3], frame="base")
+    triads = _drawn_triads(fig)
+    length = fig.robot_artist.axis_length
+    c, s = np.cos(th2), np.sin(th2)
+    T_b0 = np.array([[0, 0, 1, 0], [1, 0, 0, 0], [0, 1, 0, L0]], dtype=float)
+    T_be = np.array([[1, 0, 0, L2 / 2 + L3 + d1],
+                     [0, -c, s, s * (L4 / 2 - d3)],
+                     [0, -s, -c, L0 + c * (d3 - L4 / 2)]])
+    for name, T in (("0", T_b0), ("3=e", T_be)):
+        for k, axis in enumerate("xyz"):
+            start, tip = triads[name][axis]
+            assert np.allclose(start, T[:, 3], atol=1e-12)
+            assert np.allclose((tip - start) / length, T[:, k], atol=1e-12)
+
+
+def test_link_solids_sit_at_their_centres_of_mass():
+    """Each drawn solid is centred on its link's centre of mass, placed by forward kinematics."""
+    robot = armlab.load_robot("prp")
+    q = np.array([0.05, -0.7, 0.2])
+    fig = draw_robot(robot, q, frame="0")
+    frames = armlab.link_frames(robot, q, frame="0")
+    gids = {c.get_gid() for c in fig.axes[0].collections}
+    assert {f"link:{lk.name}" for lk in robot.links} <= gids
+    vertices = fig.robot_artist.link_vertices
+    for i, link in enumerate(robot.links):
+        polygons = vertices[link.name]
+        centre = (polygons.min(axis=0) + polygons.max(axis=0)) / 2.0
+        com = frames[i + 1][:3, :3] @ link.inertial.com + frames[i + 1][:3, 3]
+        assert np.allclose(centre, com, atol=1e-9), link.name
+
+
+def test_environment_plane_is_drawn_in_the_chosen_frame():
+    robot = armlab.load_robot("prp")
+    plane = Plane(point=(0.0, -0.3, 0.5), normal=(0.0, 1.0, 0.0), half_size=0.2)
+    for frame in ("0", "base"):
+        fig = draw_robot(robot, [0.1, 0.0, 0.1], frame=frame, plane=plane)
+        corners = fig.robot_artist.plane_points
+        T = np.eye(4) if frame == "0" else robot.base
+        point = T[:3, :3] @ np.array(plane.point) + T[:3, 3]
+        normal = T[:3, :3] @ np.array(plane.normal)
+        assert np.allclose(corners.mean(axis=0), point)
+        assert np.allclose((corners - point) @ normal, 0.0, atol=1e-12)
+
+
+def test_animation_writes_a_gif_of_the_trajectory(tmp_path):
+    from PIL import Image
+
+    robot = armlab.load_robot("prp")
+    t = np.linspace(0.0, 2.0, 201)
+    q = np.column_stack((0.1 * np.sin(t), np.sin(t), 0.1 + 0.05 * t))
+    path = animate_robot(robot, t, q, tmp_path / "run.gif", max_frames=6, fps=5)
+    with Image.open(path) as image:
+        assert image.n_frames == 6
+        first = np.asarray(image.convert("RGB"))
+        image.seek(5)
+        last = np.asarray(image.convert("RGB"))
+    assert not np.array_equal(first, last)  # the robot moved
+
+
+def test_animation_rejects_bad_input(tmp_path):
+    robot = armlab.load_robot("prp")
+    t = np.linspace(0.0, 1.0, 11)
+    with pytest.raises(AnimationError, match="shape"):
+        animate_robot(robot, t, np.zeros((11, 2)), tmp_path / "a.gif")
+    with pytest.raises(AnimationError, match="format"):
+        animate_robot(robot, t, np.zeros((11, 3)), tmp_path / "a.avi")
