@@ -215,3 +215,80 @@ def test_motor_mass_sits_on_the_joint_axis_of_an_oblique_joint(tmp_path):
     link_com = frames[1][:3, :3] @ np.array([-0.3, 0, 0]) + frames[1][:3, 3]
     joint2_origin = frames[2][:3, 3]  # Σ_2 = J_2 · R_axisᵀ shares J_2's origin, on the axis
     np.testing.assert_allclose(com_world, (2.0 * link_com + 1.0 * joint2_origin) / 3.0, atol=1e-14)
+
+
+# --------------------------------------------------------------------------- bundled robots
+def test_bundled_robots_are_listed_and_load():
+    names = armlab.bundled_robot_names()
+    assert {"prp", "prp_actuated", "planar2r", "puma560"} <= set(names)
+    for name in names:
+        robot = armlab.load_robot(name)
+        assert robot.name == name and robot.description
+
+
+def test_prp_actuated_is_the_prp_plus_motors_and_friction():
+    prp, actuated = armlab.load_robot("prp"), armlab.load_robot("prp_actuated")
+    assert actuated.parameters.items() >= prp.parameters.items()
+    for a, b in zip(prp.joints, actuated.joints, strict=True):
+        assert (a.name, a.kind, a.offset, a.limits, a.dh) == (b.name, b.kind, b.offset, b.limits, b.dh)
+        np.testing.assert_array_equal(a.before, b.before)
+        np.testing.assert_array_equal(a.after, b.after)
+        assert b.motor.gear_ratio != 1.0 and b.motor.rotor_inertia > 0 and b.motor.mass > 0
+        assert b.friction.viscous > 0 and b.friction.coulomb > 0
+    for a, b in zip(prp.links, actuated.links, strict=True):
+        assert a.name == b.name and a.inertial.mass == b.inertial.mass
+        np.testing.assert_array_equal(a.inertial.com, b.inertial.com)
+        np.testing.assert_array_equal(a.inertial.inertia, b.inertial.inertia)
+    for field in ("gravity", "base", "tool"):
+        np.testing.assert_array_equal(getattr(prp, field), getattr(actuated, field))
+
+
+def test_planar2r_inertia_about_joint_1_matches_siciliano():
+    """Siciliano et al. (7.82) b11 without the rotor terms, at q2 = 0:
+    I_l1 + m_l1 l1² + m_m2 a1² + I_l2 + m_l2 (a1 + l2)² = 10 + 12.5 + 5 + 10 + 112.5 = 150.
+    Computed here from link frames and the lumped arrays (motor 2 in link 1)."""
+    robot = armlab.load_robot("planar2r")
+    m = robot.arrays
+    frames = armlab.link_frames(robot, [0.3, 0.0], frame="0")
+    total = 0.0
+    for i, joint in enumerate(robot.joints):
+        J = frames[i + 1] @ np.linalg.inv(joint.after)
+        p_c = J[:3, :3] @ m.com[i] + J[:3, 3]
+        R = J[:3, :3]
+        total += (R @ m.inertia[i] @ R.T)[2, 2] + m.mass[i] * (p_c[0] ** 2 + p_c[1] ** 2)
+    assert total == pytest.approx(150.0, rel=1e-12)
+    np.testing.assert_allclose(m.gear_ratio ** 2 * m.rotor_inertia, [100.0, 100.0])
+    np.testing.assert_allclose(robot.gravity, [0, -9.81, 0])
+
+
+def test_puma560_wrist_position_matches_closed_form():
+    """Standard-DH PUMA 560 wrist centre (= Σ_6 origin, d5 = d6 = 0), derived by hand:
+    X = a2 c2 + a3 c23 − d4 s23,  p = (c1 X + d3 s1,  s1 X − d3 c1,  a2 s2 + a3 s23 + d4 c23);
+    at q = 0 this is Corke's documented fkine(qz) = (0.4521, −0.1500, 0.4318)."""
+    robot = armlab.load_robot("puma560")
+    a2, a3, d3, d4 = 0.4318, 0.0203, 0.15005, 0.4318
+    rng = np.random.default_rng(5)
+    for q in [np.zeros(6), *rng.uniform(-1.5, 1.5, size=(4, 6))]:
+        c1, s1 = np.cos(q[0]), np.sin(q[0])
+        c2, s2 = np.cos(q[1]), np.sin(q[1])
+        c23, s23 = np.cos(q[1] + q[2]), np.sin(q[1] + q[2])
+        X = a2 * c2 + a3 * c23 - d4 * s23
+        expected = [c1 * X + d3 * s1, s1 * X - d3 * c1, a2 * s2 + a3 * s23 + d4 * c23]
+        np.testing.assert_allclose(armlab.forward_kinematics(robot, q)[:3, 3], expected, atol=1e-12)
+    np.testing.assert_allclose(armlab.forward_kinematics(robot, np.zeros(6))[:3, 3],
+                               [0.4521, -0.15005, 0.4318], atol=1e-12)
+
+
+def test_puma560_link_side_friction_and_armature():
+    """Corke's motor-side B, Tc, Jm converted: F_v = B G², F_s = |G| mean|Tc|, k_r² I_m = Jm G²."""
+    m = armlab.load_robot("puma560").arrays
+    G = np.array([-62.6111, 107.815, -53.7063, 76.0364, 71.923, 76.686])
+    B = np.array([1.48e-3, 0.817e-3, 1.38e-3, 71.2e-6, 82.6e-6, 36.7e-6])
+    Tc = np.array([[0.395, 0.435], [0.126, 0.071], [0.132, 0.105],
+                   [11.2e-3, 16.9e-3], [9.26e-3, 14.5e-3], [3.96e-3, 10.5e-3]])
+    Jm = np.array([200e-6] * 3 + [33e-6] * 3)
+    np.testing.assert_allclose(m.viscous, B * G**2, rtol=1e-12)
+    np.testing.assert_allclose(m.coulomb, np.abs(G) * Tc.mean(axis=1), rtol=1e-12)
+    np.testing.assert_allclose(m.gear_ratio, G)
+    np.testing.assert_allclose(m.gear_ratio**2 * m.rotor_inertia, Jm * G**2, rtol=1e-12)
+    np.testing.assert_allclose(m.mass, [0.0, 17.4, 4.8, 0.82, 0.34, 0.09])
