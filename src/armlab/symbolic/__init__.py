@@ -1,0 +1,17 @@
+"""Symbolic modelling with SymPy: the seed's derivations A1–A5 for any robot, as formulas,
+LaTeX and compiled code.
+
+``import armlab`` does not import this package (SymPy is slow to import); use
+``import armlab.symbolic``.  Entry points:
+
+* :func:`symbolic_robot` — a robot rebuilt with its file's parameters as symbols;
+* :func:`derive` — the A1–A5 chain as :class:`Section` objects (title, items of
+  (label, SymPy expression)), rendered by :func:`render` as text, LaTeX or Markdown;
+* :func:`closed_form_kernels` — closed-form B, C, g, FK, J compiled with numba, with the
+  signatures of the numeric kernels;
+* :func:`compact_dynamics` — B, C, g of larger arms (Puma 560) through the recursive route.
+"""
+
+from armlab.symbolic.model import SymbolicJoint, SymbolicLink, SymbolicRobot, symbolic_robot
+
+__all__ = ["SymbolicJoint", "SymbolicLink", "SymbolicRobot", "symbolic_robot"]
