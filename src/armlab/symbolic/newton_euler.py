@@ -37,8 +37,9 @@ class JointFrameModel(NamedTuple):
     """The symbolic counterpart of ``RobotArrays`` (joint frames J_i).
 
     ``R``, ``p``: J_i in J_{i−1} at q (lists of (3, 3), (3, 1)); ``com``, ``inertia``: link i
-    in J_i; ``rotor_axis``, ``motor_point``: z_mᵢ and motor i's position in J_{i−1}; ``to_link``: rotation J_i → Σ_i (Σ_i axes of a
-    vector given in J_i: to_link[i] · v); ``tool_p``: Σ_e's origin in J_n.
+    in J_i; ``rotor_axis``, ``motor_point``: z_mᵢ and motor i's position in J_{i−1};
+    ``to_link``: rotation J_i → Σ_i (Σ_i axes of a vector given in J_i: to_link[i] · v);
+    ``tool_p``: Σ_e's origin in J_n.
     """
 
     R: list
@@ -133,7 +134,8 @@ def newton_euler(sr: SymbolicRobot, qd=None, qdd=None, gravity=None, *, friction
         if joint.motor_mass != 0:
             # Motor i is a point mass carried by link i−1 at its joint's origin.
             r = model.motor_point[i]
-            F_m = joint.motor_mass * (a_origin[i - 1] + wd[i - 1].cross(r) + w[i - 1].cross(w[i - 1].cross(r)))
+            a_m = a_origin[i - 1] + wd[i - 1].cross(r) + w[i - 1].cross(w[i - 1].cross(r))
+            F_m = joint.motor_mass * a_m
             f[i - 1] = f[i - 1] + F_m
             mu[i - 1] = mu[i - 1] + r.cross(F_m)
         if joint.rotor_inertia == 0:

@@ -20,9 +20,9 @@ from typing import NamedTuple
 
 import sympy as sp
 
+from armlab.symbolic.energy import inertia_matrix
 from armlab.symbolic.kinematics import analytical_jacobian, angles
 from armlab.symbolic.lagrange import coriolis_matrix, gravity_vector, time_derivative
-from armlab.symbolic.energy import inertia_matrix
 from armlab.symbolic.model import SymbolicRobot
 from armlab.symbolic.simplify import compact_matrix
 
