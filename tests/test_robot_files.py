@@ -292,3 +292,91 @@ def test_puma560_link_side_friction_and_armature():
     np.testing.assert_allclose(m.gear_ratio, G)
     np.testing.assert_allclose(m.gear_ratio**2 * m.rotor_inertia, Jm * G**2, rtol=1e-12)
     np.testing.assert_allclose(m.mass, [0.0, 17.4, 4.8, 0.82, 0.34, 0.09])
+
+
+# ------------------------------------------------------------------------------ command line
+def _cli(capsys, *argv):
+    from armlab.cli import main
+
+    code = main(list(argv))
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def test_cli_robots_lists_every_bundled_robot(capsys):
+    code, out, err = _cli(capsys, "robots")
+    assert code == 0 and not err
+    for name in armlab.bundled_robot_names():
+        robot = armlab.load_robot(name)
+        line = next(line for line in out.splitlines() if line.startswith(name + " "))
+        assert line.split()[1:3] == [str(robot.n), "".join(j.kind[0].upper() for j in robot.joints)]
+
+
+@pytest.mark.parametrize("name", ["prp", "prp_actuated", "planar2r", "puma560"])
+def test_cli_robots_describes_a_robot(capsys, name):
+    code, out, err = _cli(capsys, "robots", name)
+    assert code == 0 and not err
+    robot = armlab.load_robot(name)
+    for part in ("DH table", "Joints: limits, motors", "Links: mass", *robot.joint_names,
+                 *[lk.name for lk in robot.links]):
+        assert part in out
+
+
+def test_cli_robots_describes_a_urdf_file_and_exports_urdf(capsys, tmp_path):
+    path = tmp_path / "prp.urdf"
+    code, out, _ = _cli(capsys, "robots", "prp", "--urdf", str(path))
+    assert code == 0 and f"URDF written to {path}" in out
+    code, out, err = _cli(capsys, "robots", str(path))
+    assert code == 0 and not err
+    assert "Joint placements" in out and "d1" in out and "theta2" in out
+
+
+def test_cli_demo_prints_the_seed_dh_tables_and_forward_kinematics(capsys):
+    """The seed's A1 tables (from Σ_base: base row a = 0, α = π/2, d = L0, θ = π/2) and
+    T_3^0 at d1 = 0.1, θ2 = π/3, d3 = 0.1 from the seed's closed form:
+    p = (s2 (L4/2 − d3), −c2 (L4/2 − d3), L2/2 + L3 + d1) = (0.0866, −0.05, 0.5)."""
+    code, out, err = _cli(capsys, "demo")
+    assert code == 0 and not err
+    compact = [" ".join(line.split()) for line in out.splitlines()]
+    assert "base → 0 0 π/2 L0 π/2" in compact
+    assert "0 → 1 0 0 L2/2 + d1 0" in compact
+    assert "1 → 2 0 -π/2 L3 θ2" in compact
+    assert "2 → 3 0 -π d3 - L4/2 -π/2" in compact
+    T0 = out.split("T_3^0")[1]
+    rows = [line.strip(" []").split() for line in T0.splitlines()[1:5]]
+    np.testing.assert_allclose(np.array(rows, dtype=float),
+                               [[0, -0.5, 0.866, 0.0866], [0, -0.866, -0.5, -0.05], [1, 0, 0, 0.5],
+                                [0, 0, 0, 1]], atol=1e-4)
+    assert "T_3^base" in out
+
+
+def test_cli_demo_accepts_a_pose_and_another_robot(capsys):
+    code, out, _ = _cli(capsys, "demo", "--robot", "planar2r", "--q", "pi/2, 0")
+    assert code == 0
+    T0 = out.split("T_2^0")[1]
+    rows = [line.strip(" []").split() for line in T0.splitlines()[1:5]]
+    # Both links along y_0: the tip at (0, a1 + a2, 0).
+    np.testing.assert_allclose(np.array(rows, dtype=float)[:3, 3], [0, 2, 0], atol=1e-4)
+
+
+@pytest.mark.parametrize("argv", [["robots", "no_such_robot"], ["demo", "--q", "1, 2"],
+                                  ["robots", "missing.toml"]])
+def test_cli_errors_are_one_line_with_exit_code_2(capsys, argv):
+    code, out, err = _cli(capsys, *argv)
+    assert code == 2
+    assert err.count("\n") == 1 and err.startswith(f"armlab {argv[0]}: error: ")
+    assert "Traceback" not in err
+
+
+def test_console_script_runs_and_reports_errors():
+    """The installed ``armlab`` entry point, in a separate process."""
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    script = Path(sys.executable).with_name("armlab")
+    command = [str(script)] if script.exists() else [sys.executable, "-m", "armlab.cli"]
+    done = subprocess.run([*command, "--version"], capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0 and done.stdout.startswith("armlab ")
+    done = subprocess.run([*command, "robots", "nope"], capture_output=True, text=True, timeout=120)
+    assert done.returncode == 2 and done.stderr.count("\n") == 1 and "nope" in done.stderr

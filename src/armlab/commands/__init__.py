@@ -1,0 +1,60 @@
+"""Subcommands of the ``armlab`` command line; one module per subcommand.
+
+Each module exposes ``register(subparsers)``, which adds its parser and sets ``func`` (called
+with the parsed arguments, returning an exit code or None).  Shared text formatting lives here.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from armlab.errors import ArmlabError
+
+
+class CommandError(ArmlabError):
+    """A command-line argument that armlab cannot use; printed as one line."""
+
+
+def format_table(headers: list[str], rows: list[list[str]], indent: str = "") -> str:
+    """Left-aligned plain-text table with a rule under the header."""
+    cells = [list(map(str, headers))] + [[str(c) for c in row] for row in rows]
+    widths = [max(len(row[k]) for row in cells) for k in range(len(headers))]
+    lines = ["  ".join(c.ljust(w) for c, w in zip(row, widths, strict=True)).rstrip() for row in cells]
+    lines.insert(1, "  ".join("-" * w for w in widths))
+    return "\n".join(indent + line for line in lines)
+
+
+def format_number(value: float, digits: int = 4) -> str:
+    """A compact number: ``digits`` decimals (three significant digits below 10^(1−digits)),
+    without trailing zeros or a negative zero."""
+    if not np.isfinite(value):
+        return "inf" if value > 0 else "-inf"
+    if abs(value) < 1e-12:
+        # Round-off of exact zeros (cos π/2 = 6e-17) is shown as 0.
+        return "0"
+    if abs(value) < 10.0 ** (1 - digits):
+        # Small values (rotor inertias, wrist inertias) keep their significant digits.
+        return f"{value:.3g}"
+    text = f"{value:.{digits}f}".rstrip("0").rstrip(".")
+    return "0" if text in ("-0", "") else text
+
+
+def format_matrix(matrix, indent: str = "    ", digits: int = 4) -> str:
+    """Rows of a matrix, columns aligned, one line per row."""
+    matrix = np.atleast_2d(np.asarray(matrix, dtype=float))
+    cells = [[format_number(v, digits) for v in row] for row in matrix]
+    width = max(len(c) for row in cells for c in row)
+    return "\n".join(indent + "[ " + "  ".join(c.rjust(width) for c in row) + " ]" for row in cells)
+
+
+def parse_vector(text: str, n: int, what: str) -> np.ndarray:
+    """``"0.1, pi/3, 0.1"`` → (n,) array; expressions as in robot files (pi, sqrt, …)."""
+    from armlab.model.toml_io import evaluate_expression
+
+    parts = [p for p in text.replace(",", " ").split() if p]
+    if len(parts) != n:
+        raise CommandError(f"{what}: expected {n} values, got {len(parts)} ({text!r})")
+    try:
+        return np.array([evaluate_expression(p, {}) for p in parts])
+    except (ValueError, ZeroDivisionError) as error:
+        raise CommandError(f"{what}: {error}") from error
