@@ -134,6 +134,14 @@ def _wrap_revolute(robot: Robot, q: np.ndarray, reference: np.ndarray) -> np.nda
     return q
 
 
+def _distance(robot: Robot, q: np.ndarray, reference: np.ndarray) -> float:
+    """|q − reference| with revolute differences taken on the circle (−π, π]."""
+    diff = q - reference
+    revolute = robot.arrays.joint_type == REVOLUTE
+    diff[revolute] = np.angle(np.exp(1j * diff[revolute]))
+    return float(np.linalg.norm(diff))
+
+
 def _limit_violations(robot: Robot, q: np.ndarray, tol: float = 1e-12) -> list[str]:
     q_min, q_max = _limits(robot)
     out = []
@@ -365,7 +373,8 @@ def _starts(robot: Robot, q0, restarts: int, seed: int, respect_limits: bool) ->
         first = np.asarray(q0, dtype=float)
     else:
         finite = np.isfinite(q_min) & np.isfinite(q_max)
-        first = np.where(finite, 0.5 * (q_min + q_max), 0.0)
+        first = np.zeros(robot.n)
+        first[finite] = 0.5 * (q_min[finite] + q_max[finite])
     if respect_limits:
         first = np.clip(first, q_min, q_max)
     rng = np.random.default_rng(seed)
@@ -471,7 +480,7 @@ def inverse_kinematics(robot: Robot, target, q0=None, *, frame: str = "base", eu
     if geo is not None:
         solutions = _solve_closed_form(robot, geo, parsed, reference, respect_limits, tol)
         if q0 is not None:
-            solutions.sort(key=lambda q: float(np.linalg.norm(q - q0)))
+            solutions.sort(key=lambda q: _distance(robot, q, q0))
     else:
         solutions = _solve_dls(robot, parsed, q0, reference, respect_limits, tol, max_iter, restarts,
                                seed, damping)
