@@ -198,6 +198,8 @@ def _chain(path, joints: dict, children: dict, root: str, tip: str | None) -> li
         while link != root:
             joint = parent_joint[link]
             chain.append(joint)
+            if len(chain) > len(joints):
+                _fail(path, f"joint[{joint.name}]", "the joints form a cycle (a URDF is a tree)")
             link = joint.parent
         return chain[::-1]
 
