@@ -1,0 +1,117 @@
+"""Pieces of a self-contained HTML document: sections, tables, inline images, MathML.
+
+Nothing here reaches the network: images are ``data:`` URIs, the style sheet is inline and
+formulas are presentation MathML (``sympy.printing.mathml``), which browsers render natively
+(MathML Core), so the document needs no script and no font download.
+"""
+
+from __future__ import annotations
+
+import base64
+import html
+import io
+
+STYLE = """
+:root { --ink: #1b1f24; --muted: #5b6570; --rule: #d8dde3; --accent: #1f5fd6; --bad: #b42318; }
+* { box-sizing: border-box; }
+body { margin: 0; font: 15px/1.5 "DejaVu Sans", "Liberation Sans", sans-serif; color: var(--ink);
+       background: #fbfcfd; }
+header { padding: 28px 40px 18px; border-bottom: 1px solid var(--rule); background: #fff; }
+header h1 { margin: 0 0 4px; font-size: 26px; }
+header p { margin: 2px 0; color: var(--muted); }
+nav { padding: 10px 40px; border-bottom: 1px solid var(--rule); background: #f3f5f8; font-size: 14px; }
+nav a { margin-right: 14px; color: var(--accent); text-decoration: none; white-space: nowrap; }
+main { padding: 8px 40px 60px; max-width: 1320px; }
+section.assignment { margin-top: 34px; padding-top: 6px; border-top: 3px solid var(--accent); }
+section.assignment > h2 { font-size: 22px; margin: 8px 0 6px; }
+article.experiment { margin: 22px 0 10px; padding: 14px 18px; background: #fff;
+                     border: 1px solid var(--rule); border-radius: 6px; }
+article.experiment h3 { margin: 0 0 6px; font-size: 18px; }
+.description { color: #2d343c; max-width: 980px; }
+.figures { display: flex; flex-wrap: wrap; gap: 14px; margin-top: 10px; }
+figure { margin: 0; padding: 6px; background: #fff; border: 1px solid var(--rule); border-radius: 4px; }
+figure img { display: block; max-width: 100%; height: auto; }
+figure.scope img { width: 600px; }
+figure.drawing img { width: 400px; }
+figure.drawing figcaption { max-width: 400px; }
+figcaption { font-size: 12.5px; color: var(--muted); padding: 4px 2px 0; max-width: 600px; }
+table { border-collapse: collapse; margin: 8px 0; font-size: 13.5px; }
+th, td { border: 1px solid var(--rule); padding: 3px 9px; text-align: left; vertical-align: top; }
+th { background: #f0f3f7; font-weight: 600; }
+td.num { text-align: right; font-variant-numeric: tabular-nums; font-family: "DejaVu Sans Mono", monospace; }
+.tables { display: flex; flex-wrap: wrap; gap: 24px; align-items: flex-start; }
+.formula { margin: 10px 0 14px; overflow-x: auto; }
+.formula .label { color: var(--muted); font-size: 13px; margin-bottom: 2px; }
+math[display="block"] { font-size: 17px; }
+.diverged { color: var(--bad); font-weight: 600; }
+.missing { color: var(--muted); font-style: italic; }
+code { font-family: "DejaVu Sans Mono", monospace; font-size: 13px; background: #eef1f5;
+       padding: 1px 4px; border-radius: 3px; }
+"""
+
+
+def escape(text) -> str:
+    return html.escape(str(text), quote=True)
+
+
+def png_data_uri(data: bytes) -> str:
+    return "data:image/png;base64," + base64.b64encode(data).decode("ascii")
+
+
+def gif_data_uri(data: bytes) -> str:
+    return "data:image/gif;base64," + base64.b64encode(data).decode("ascii")
+
+
+def figure_png(fig, *, dpi: int = 96, tight: bool = False) -> bytes:
+    """The PNG bytes of a matplotlib Figure (``tight`` crops the empty margin)."""
+    buffer = io.BytesIO()
+    crop = {"bbox_inches": "tight", "pad_inches": 0.08} if tight else {}
+    fig.savefig(buffer, format="png", dpi=dpi, **crop)
+    return buffer.getvalue()
+
+
+def figure(uri: str, caption: str, *, kind: str, ident: str) -> str:
+    """An inline image with its caption; ``kind`` is the CSS class, ``ident`` the element id."""
+    return (f'<figure class="{escape(kind)}" id="{escape(ident)}" data-figure="{escape(ident)}">'
+            f'<img alt="{escape(caption)}" src="{uri}"><figcaption>{escape(caption)}</figcaption></figure>')
+
+
+def table(headers: list[str], rows: list[list], *, numeric: set[int] = frozenset(), caption: str = "") -> str:
+    """A table; the columns in ``numeric`` are right-aligned."""
+    head = "".join(f"<th>{escape(h)}</th>" for h in headers)
+    body = []
+    for row in rows:
+        cells = "".join(f'<td class="num">{escape(c)}</td>' if k in numeric else f"<td>{escape(c)}</td>"
+                        for k, c in enumerate(row))
+        body.append(f"<tr>{cells}</tr>")
+    cap = f"<caption>{escape(caption)}</caption>" if caption else ""
+    return f"<table>{cap}<thead><tr>{head}</tr></thead><tbody>{''.join(body)}</tbody></table>"
+
+
+def math_block(label: str, expr, label_expr=None) -> str:
+    """``label`` (text) over the presentation MathML of ``label_expr = expr`` (SymPy objects)."""
+    from sympy.printing.mathml import mathml
+
+    body = mathml(expr, printer="presentation")
+    if label_expr is not None:
+        body = f"<mrow>{mathml(label_expr, printer='presentation')}<mo>=</mo>{body}</mrow>"
+    return (f'<div class="formula"><div class="label">{escape(label)}</div>'
+            f'<math display="block">{body}</math></div>')
+
+
+# The page forbids itself every fetch: images only from data: URIs, inline style, no script.
+# A browser that meets anything else blocks it and reports a console error.
+CONTENT_SECURITY_POLICY = "default-src 'none'; img-src data:; style-src 'unsafe-inline'"
+
+
+def document(title: str, subtitle: list[str], nav: list[tuple[str, str]], body: str) -> str:
+    """The whole HTML page: header, navigation, body; no external resource (enforced by its
+    Content-Security-Policy)."""
+    links = "".join(f'<a href="#{escape(i)}">{escape(t)}</a>' for i, t in nav)
+    lines = "".join(f"<p>{escape(s)}</p>" for s in subtitle)
+    return ("<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">"
+            f'<meta http-equiv="Content-Security-Policy" content="{CONTENT_SECURITY_POLICY}">'
+            "<meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">"
+            f"<title>{escape(title)}</title><style>{STYLE}</style></head><body>"
+            f"<header><h1>{escape(title)}</h1>{lines}</header><nav>{links}</nav>"
+            f"<main>{body}</main></body></html>\n")

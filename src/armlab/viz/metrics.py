@@ -1,0 +1,126 @@
+"""Numbers that show a closed-loop behaviour, measured on a :class:`SimulationResult`.
+
+* steady-state error of every error signal ``*_err``: the mean over the last 5 % of the run;
+* settling time: the last time |e_i| is outside a band of 2 % of its peak |e_i| (a run whose
+  last sample is still outside the band has not settled);
+* RMS tracking error over the second half of the run (the regime of a periodic reference);
+* peak |τ_i| and the fraction of the run spent at the saturation limit;
+* final contact force (last 5 %) and its error against the desired force;
+* final parameter estimates against the true values.
+
+Each metric is a :class:`Metric` row (quantity, component, value, unit) for the report's tables.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from armlab.viz.scopes import FORCE_REFERENCES, pretty
+
+TAIL = 0.05
+BAND = 0.02
+
+
+@dataclass(frozen=True)
+class Metric:
+    """One measured number: ``quantity`` of ``component``, ``value`` in ``unit`` (text if not
+    a number, e.g. "not settled")."""
+
+    quantity: str
+    component: str
+    value: float | str
+    unit: str = ""
+
+    def formatted(self) -> str:
+        if isinstance(self.value, str):
+            return self.value
+        if self.value == 0.0:
+            return "0"
+        magnitude = abs(self.value)
+        return f"{self.value:.3g}" if 1e-3 <= magnitude < 1e4 else f"{self.value:.2e}"
+
+
+def tail_slice(t: np.ndarray, fraction: float = TAIL) -> slice:
+    """The samples of the last ``fraction`` of the time span (at least one)."""
+    start = t[-1] - fraction * (t[-1] - t[0])
+    first = int(np.searchsorted(t, start, side="left"))
+    return slice(min(first, t.size - 1), None)
+
+
+def settling_time(t: np.ndarray, e: np.ndarray, band: float = BAND) -> float | None:
+    """Time [s] after which |e| stays within ``band`` × max|e|; None if it never does.
+
+    Returns ``t[0]`` for a signal that is zero throughout.
+    """
+    magnitude = np.abs(e)
+    peak = float(np.nanmax(magnitude))
+    if peak == 0.0:
+        return float(t[0])
+    outside = np.flatnonzero(magnitude > band * peak)
+    if outside.size == 0:
+        return float(t[0])
+    last = int(outside[-1])
+    if last == t.size - 1:
+        return None
+    return float(t[last + 1])
+
+
+def measure(result) -> list[Metric]:
+    """Every metric of the module docstring that ``result`` has the signals for."""
+    t = np.asarray(result.t)
+    tail = tail_slice(t)
+    half = slice(t.size // 2, None)
+    rows: list[Metric] = []
+    for name, data in result.signals.items():
+        if not name.endswith("_err"):
+            continue
+        for k, label in enumerate(result.labels[name]):
+            unit = result.units[name][k]
+            component = pretty(label)
+            final = float(np.mean(data[tail, k]))
+            rows.append(Metric(f"steady-state {pretty(name)}", component, final, unit))
+            ts = settling_time(t, data[:, k])
+            rows.append(Metric(f"settling time (2 %) of {pretty(name)}", component,
+                               "not settled" if ts is None else ts, "" if ts is None else "s"))
+            rows.append(Metric(f"RMS {pretty(name)} (2nd half)", component,
+                               float(np.sqrt(np.mean(data[half, k] ** 2))), unit))
+    limit = result.meta.get("torque_limit")
+    limits = None if limit is None else np.broadcast_to(np.asarray(limit, dtype=float), (result.n,))
+    for k, label in enumerate(result.labels["tau"]):
+        unit = result.units["tau"][k]
+        rows.append(Metric("peak |τ|", pretty(label), float(np.max(np.abs(result.tau[:, k]))), unit))
+        if limits is not None and np.isfinite(limits[k]):
+            saturated = np.abs(result.tau[:, k]) >= limits[k] * (1.0 - 1e-9)
+            share = 100.0 * float(np.mean(saturated))
+            rows.append(Metric("time at the torque limit", pretty(label), share, "%"))
+    if "h_e" in result.signals:
+        h = result.signals["h_e"]
+        ref = next((r for r in FORCE_REFERENCES if r in result.signals), None)
+        for k, label in enumerate(result.labels["h_e"]):
+            final = float(np.mean(h[tail, k]))
+            desired = None
+            if ref is not None and k < result.signals[ref].shape[1]:
+                desired = float(np.mean(result.signals[ref][tail, k]))
+            if abs(final) < 1e-9 and not desired:
+                continue
+            rows.append(Metric("final contact wrench h_e", label, final, result.units["h_e"][k]))
+            if desired is not None:
+                rows.append(Metric(f"final force error {ref} − h_e", label, desired - final,
+                                   result.units["h_e"][k]))
+    for name, data in result.signals.items():
+        if not name.endswith("_hat"):
+            continue
+        truth = result.signals.get(name[:-4] + "_true")
+        true_values = result.meta.get("true_parameters")
+        for k, label in enumerate(result.labels[name]):
+            unit = result.units[name][k]
+            rows.append(Metric(f"final estimate {pretty(name)}", pretty(label), float(data[-1, k]), unit))
+            if truth is not None:
+                rows.append(Metric("true value", pretty(label), float(truth[-1, k]), unit))
+            elif true_values is not None and k < len(true_values):
+                rows.append(Metric("true value", pretty(label), float(true_values[k]), unit))
+    if result.status != "ok":
+        rows.append(Metric("status", "", result.diagnosis or result.status))
+    return rows
