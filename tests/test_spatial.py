@@ -1,4 +1,4 @@
-"""Rotations, transforms, Euler angles and their rate matrices (E1–E4 of docs/notation.md).
+"""Rotations, transforms, Euler angles and their rate matrices (K9–K12 of docs/notation.md).
 
 References are independent of the code under test: finite differences of R(φ(t)) for ω, the
 definition of the cross product for skew, and angle-axis constructions written out here.

@@ -17,7 +17,7 @@ Damped least squares (K8) for any robot: Levenberg–Marquardt steps
                                                                   position target)
 
 with μ adapted (÷3 on success, ×4 on failure), q clipped into the joint limits, and restarts
-from seeded random configurations.  The orientation error is the rotation vector (E4), so
+from seeded random configurations.  The orientation error is the rotation vector (K12), so
 an Euler-angle target never meets a representation singularity here.
 
 Joint limits: solutions outside ``Joint.limits`` are dropped when ``respect_limits=True``
@@ -34,6 +34,7 @@ import numpy as np
 from numba import njit
 
 from armlab.errors import ArmlabError
+from armlab.kernels.dynamics import cholesky_solve_inplace
 from armlab.kernels.kinematics import (
     KinematicsWorkspace,
     end_effector_into,
@@ -280,35 +281,6 @@ def _residual_into(m, q, R_des, p_des, full_pose, ws, e):
 
 
 @njit(cache=True)
-def _cholesky_solve_inplace(A, b):
-    """Solve A x = b for a symmetric positive definite A (n, n); A ← L, b ← x. False if not SPD."""
-    n = A.shape[0]
-    for j in range(n):
-        s = A[j, j]
-        for k in range(j):
-            s -= A[j, k] * A[j, k]
-        if s <= 0.0:
-            return False
-        A[j, j] = np.sqrt(s)
-        for i in range(j + 1, n):
-            s = A[i, j]
-            for k in range(j):
-                s -= A[i, k] * A[j, k]
-            A[i, j] = s / A[j, j]
-    for i in range(n):
-        s = b[i]
-        for k in range(i):
-            s -= A[i, k] * b[k]
-        b[i] = s / A[i, i]
-    for i in range(n - 1, -1, -1):
-        s = b[i]
-        for k in range(i + 1, n):
-            s -= A[k, i] * b[k]
-        b[i] = s / A[i, i]
-    return True
-
-
-@njit(cache=True)
 def dls_kernel(m, R_des, p_des, full_pose, q_min, q_max, q, max_iter, tol, damping, ws, A, dq,
                q_try, e, e_try):
     """Levenberg–Marquardt inverse kinematics from ``q`` (n,), updated in place (K8).
@@ -342,7 +314,7 @@ def dls_kernel(m, R_des, p_des, full_pose, q_min, q_max, q, max_iter, tol, dampi
                     A[i, j] = s
                     A[j, i] = s
                 A[i, i] += mu
-            if not _cholesky_solve_inplace(A, dq):
+            if not cholesky_solve_inplace(A, dq):
                 mu *= 4.0
                 continue
             step = 0.0

@@ -193,7 +193,7 @@ def euler_angles_into(R, convention, branch, reference, out):
 
 @njit(cache=True, error_model="numpy")
 def euler_rate_matrix_into(angles, convention, out):
-    """T(φ) (3, 3) into ``out`` with ω = T(φ) φ̇ (E1); returns det T (−sin ϑ | −cos ϑ).
+    """T(φ) (3, 3) into ``out`` with ω = T(φ) φ̇ (K9); returns det T (−sin ϑ | −cos ϑ).
 
     ZYZ: T = [[0, −sφ, cφ sϑ], [0, cφ, sφ sϑ], [1, 0, cϑ]]
     RPY: T = [[0, −sφ, cφ cϑ], [0, cφ, sφ cϑ], [1, 0, −sϑ]]
@@ -209,7 +209,7 @@ def euler_rate_matrix_into(angles, convention, out):
 
 @njit(cache=True, error_model="numpy")
 def euler_rates_from_omega(angles, convention, wx, wy, wz):
-    """φ̇ = T(φ)⁻¹ ω (E2) as a scalar triple; ω [rad/s] in the frame of R.
+    """φ̇ = T(φ)⁻¹ ω (K10) as a scalar triple; ω [rad/s] in the frame of R.
 
     ZYZ: ψ̇ = (cφ ωx + sφ ωy)/sϑ,  ϑ̇ = −sφ ωx + cφ ωy,  φ̇ = ωz − cϑ ψ̇
     RPY: ψ̇ = (cφ ωx + sφ ωy)/cϑ,  ϑ̇ = −sφ ωx + cφ ωy,  φ̇ = ωz + sϑ ψ̇
@@ -228,7 +228,7 @@ def euler_rates_from_omega(angles, convention, wx, wy, wz):
 
 @njit(cache=True, error_model="numpy")
 def euler_rate_inverse_into(angles, convention, out):
-    """T(φ)⁻¹ (3, 3) into ``out`` (E2); returns det T.  Rows are inf/nan where det T = 0."""
+    """T(φ)⁻¹ (3, 3) into ``out`` (K10); returns det T.  Rows are inf/nan where det T = 0."""
     for c in range(3):
         e0 = 1.0 if c == 0 else 0.0
         e1 = 1.0 if c == 1 else 0.0
@@ -242,7 +242,7 @@ def euler_rate_inverse_into(angles, convention, out):
 
 @njit(cache=True, error_model="numpy")
 def euler_rate_dot_times(angles, rates, convention):
-    """Ṫ(φ, φ̇) φ̇ as a scalar triple (E3): the part of ω̇ = T φ̈ + Ṫ φ̇ not due to φ̈.
+    """Ṫ(φ, φ̇) φ̇ as a scalar triple (K11): the part of ω̇ = T φ̈ + Ṫ φ̇ not due to φ̈.
 
     ZYZ: Ṫ φ̇ = [−cφ φ̇ ϑ̇ − sφ sϑ φ̇ ψ̇ + cφ cϑ ϑ̇ ψ̇,  −sφ φ̇ ϑ̇ + cφ sϑ φ̇ ψ̇ + sφ cϑ ϑ̇ ψ̇,  −sϑ ϑ̇ ψ̇]
     RPY: Ṫ φ̇ = [−cφ φ̇ ϑ̇ − sφ cϑ φ̇ ψ̇ − cφ sϑ ϑ̇ ψ̇,  −sφ φ̇ ϑ̇ + cφ cϑ φ̇ ψ̇ − sφ sϑ ϑ̇ ψ̇,  −cϑ ϑ̇ ψ̇]
@@ -266,7 +266,7 @@ def euler_rate_dot_times(angles, rates, convention):
 
 @njit(cache=True, error_model="numpy")
 def rotation_error_into(R_des, R, out):
-    """Rotation vector e_O = ϑ r of R_des Rᵀ (axis r, angle ϑ ∈ [0, π]) into ``out`` (3,) (E4).
+    """Rotation vector e_O = ϑ r of R_des Rᵀ (axis r, angle ϑ ∈ [0, π]) into ``out`` (3,) (K12).
 
     Both rotations are expressed in the same frame; e_O is in that frame.  Exact (log map), so
     it stays meaningful for large errors; robust near ϑ = π where the skew part vanishes.
@@ -357,7 +357,7 @@ def euler_from_matrix(R: np.ndarray, convention: str = "zyz", *, branch=1) -> np
 
 
 def euler_rate_matrix(angles, convention: str = "zyz") -> np.ndarray:
-    """T(φ) with ω = T(φ) φ̇, (3, 3); ω and φ̇ in the fixed frame (E1, Siciliano (3.64)).
+    """T(φ) with ω = T(φ) φ̇, (3, 3); ω and φ̇ in the fixed frame (K9, Siciliano (3.64)).
 
     ZYZ: T = [[0, −sφ, cφ sϑ], [0, cφ, sφ sϑ], [1, 0, cϑ]], det T = −sin ϑ.
     RPY: T = [[0, −sφ, cφ cϑ], [0, cφ, sφ cϑ], [1, 0, −sϑ]], det T = −cos ϑ.
@@ -368,7 +368,7 @@ def euler_rate_matrix(angles, convention: str = "zyz") -> np.ndarray:
 
 
 def euler_rate_inverse(angles, convention: str = "zyz", singular_tol: float = 1e-6) -> np.ndarray:
-    """T(φ)⁻¹, (3, 3) (E2); raises :class:`RepresentationSingularityError` if |det T| < tol."""
+    """T(φ)⁻¹, (3, 3) (K10); raises :class:`RepresentationSingularityError` if |det T| < tol."""
     out = np.empty((3, 3))
     det = euler_rate_inverse_into(np.asarray(angles, dtype=float), euler_code(convention), out)
     if abs(det) < singular_tol:
@@ -377,21 +377,21 @@ def euler_rate_inverse(angles, convention: str = "zyz", singular_tol: float = 1e
 
 
 def analytic_transform(angles, convention: str = "zyz") -> np.ndarray:
-    """T_A(φ) = blockdiag(I₃, T(φ)), (6, 6), with v = [ṗ; ω] = T_A(φ) ẋ for x = [p; φ] (E1)."""
+    """T_A(φ) = blockdiag(I₃, T(φ)), (6, 6), with v = [ṗ; ω] = T_A(φ) ẋ for x = [p; φ] (K9)."""
     T_A = np.eye(6)
     T_A[3:, 3:] = euler_rate_matrix(angles, convention)
     return T_A
 
 
 def analytic_transform_inverse(angles, convention: str = "zyz", singular_tol: float = 1e-6) -> np.ndarray:
-    """T_A(φ)⁻¹ = blockdiag(I₃, T(φ)⁻¹), (6, 6) (E2); raises at a representation singularity."""
+    """T_A(φ)⁻¹ = blockdiag(I₃, T(φ)⁻¹), (6, 6) (K10); raises at a representation singularity."""
     T_A_inv = np.eye(6)
     T_A_inv[3:, 3:] = euler_rate_inverse(angles, convention, singular_tol)
     return T_A_inv
 
 
 def rotation_error(R_des: np.ndarray, R: np.ndarray) -> np.ndarray:
-    """Rotation vector (3,) [rad] of R_des Rᵀ: the rotation taking R to R_des (E4)."""
+    """Rotation vector (3,) [rad] of R_des Rᵀ: the rotation taking R to R_des (K12)."""
     out = np.empty(3)
     rotation_error_into(np.ascontiguousarray(R_des, dtype=float), np.ascontiguousarray(R, dtype=float), out)
     return out

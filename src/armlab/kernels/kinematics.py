@@ -7,7 +7,7 @@ so the geometric Jacobian columns are (Siciliano (3.30)):
 
     prismatic: [z_i; 0],   revolute: [z_i × (p_e − p_i); z_i]                          (K3)
 
-The analytic Jacobian and its time derivative follow from v = T_A(φ) ẋ (E1, E2, E3):
+The analytic Jacobian and its time derivative follow from v = T_A(φ) ẋ (K9, K10, K11):
 
     J_A = T_A(φ)⁻¹ J,    J̇_A q̇ = T_A(φ)⁻¹ (J̇ q̇ − Ṫ_A(φ, φ̇) ẋ),  ẋ = J_A q̇          (K4, K6)
 
