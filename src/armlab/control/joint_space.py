@@ -1,0 +1,178 @@
+"""Joint-space controllers of seed assignments A6 (PD + gravity) and A7 (inverse dynamics).
+
+Both follow the protocol of ``armlab.control.base``; both compute their model terms from
+their own ``model`` (a :class:`~armlab.model.robot.Robot`, possibly different from the plant).
+Errors are q_err = q_des − q (the seed's q̃).  Notation: ``docs/notation.md``, C-tags.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numba import njit
+
+from armlab.control.base import Controller, ProtocolError, Signal
+from armlab.kernels.dynamics import gravity_into, make_workspace, rnea_into
+from armlab.model.robot import Robot
+from armlab.references import JointReference, reference_into
+
+COMPENSATION = {"online": 0, "desired": 1, "none": 2}
+
+
+def gain_matrix(value, n: int, field: str) -> np.ndarray:
+    """A (n, n) gain from a number, a (n,) diagonal or a (n, n) matrix; must be symmetric PSD."""
+    array = np.asarray(value, dtype=float)
+    if array.ndim == 0 or array.shape == (1,):
+        array = np.eye(n) * float(array.reshape(-1)[0])
+    elif array.shape == (n,):
+        array = np.diag(array)
+    if array.shape != (n, n) or not np.all(np.isfinite(array)):
+        raise ProtocolError(f"{field}: expected a number, {n} numbers or a {n}×{n} matrix, "
+                            f"got shape {np.shape(value)}")
+    if not np.allclose(array, array.T) or np.linalg.eigvalsh(0.5 * (array + array.T)).min() < 0:
+        raise ProtocolError(f"{field}: a gain must be symmetric positive semi-definite")
+    return np.ascontiguousarray(array)
+
+
+def _check_reference(reference, n, field="reference"):
+    if not isinstance(reference, JointReference):
+        raise ProtocolError(f"{field}: {reference!r} is not a JointReference")
+    if reference.n != n:
+        raise ProtocolError(f"{field}: has {reference.n} components, the model {n} joints")
+
+
+@njit(cache=True)
+def joint_pd_gravity_law(t, q, qd, z, h_e, params, tau_out, zdot_out, signals_out):
+    """(C1): τ = ĝ(q_g) + K_P (q_des − q) − K_D q̇, q_g per compensation mode."""
+    m, ws, ref, kp, kd, mode, q_des, qd_des, qdd_des, g = params
+    n = q.shape[0]
+    reference_into(ref, t, q_des, qd_des, qdd_des)
+    if mode[0] == 0:
+        gravity_into(m, ws, q, g)
+    elif mode[0] == 1:
+        gravity_into(m, ws, q_des, g)
+    else:
+        for i in range(n):
+            g[i] = 0.0
+    for i in range(n):
+        acc = g[i]
+        for j in range(n):
+            acc += kp[i, j] * (q_des[j] - q[j]) - kd[i, j] * qd[j]
+        tau_out[i] = acc
+        signals_out[i] = q_des[i]
+        signals_out[n + i] = q_des[i] - q[i]
+        signals_out[2 * n + i] = g[i]
+
+
+@dataclass(frozen=True, eq=False)
+class JointPDGravity(Controller):
+    """Joint-space PD with gravity compensation (seed A6).
+
+        τ = ĝ(q_g) + K_P (q_des − q) − K_D q̇                                              (C1)
+
+    ``compensation``: "online" (q_g = q: global asymptotic stability of a constant q_des with
+    zero error), "desired" (q_g = q_des(t), a feed-forward computed from the reference), or
+    "none" (ĝ = 0: the equilibrium satisfies K_P q_err = g(q), a steady-state error on the
+    joints that gravity loads).  ĝ is the gravity of the controller's ``model``.
+    ``kp``, ``kd``: (n, n), (n,) or scalars [N/m | N·m/rad], [N·s/m | N·m·s/rad].
+
+    Signals: ``q_des``, ``q_err`` (= q_des − q), ``g_comp`` (the ĝ term) — the A6 scopes.
+    """
+
+    model: Robot
+    reference: JointReference
+    kp: np.ndarray
+    kd: np.ndarray
+    compensation: str = "online"
+    law = joint_pd_gravity_law
+
+    def __post_init__(self):
+        n = self.model.n
+        _check_reference(self.reference, n)
+        if self.compensation not in COMPENSATION:
+            raise ProtocolError(f"compensation: {self.compensation!r} is not one of "
+                                f"{', '.join(COMPENSATION)}")
+        object.__setattr__(self, "kp", gain_matrix(self.kp, n, "kp"))
+        object.__setattr__(self, "kd", gain_matrix(self.kd, n, "kd"))
+
+    def params(self):
+        n = self.n
+        return (self.model.arrays, make_workspace(n), np.array(self.reference.data), self.kp, self.kd,
+                np.array([COMPENSATION[self.compensation]], dtype=np.int64),
+                np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n))
+
+    def signals(self):
+        return (Signal.joint("q_des", self.model, "position"), Signal.joint("q_err", self.model, "error"),
+                Signal.joint("g_comp", self.model, "effort"))
+
+
+@njit(cache=True)
+def joint_inverse_dynamics_law(t, q, qd, z, h_e, params, tau_out, zdot_out, signals_out):
+    """(C2): τ = B̂(q) y + n̂(q, q̇), y = q̈_des + K_D (q̇_des − q̇) + K_P (q_des − q)."""
+    m, ws, ref, kp, kd, q_des, qd_des, qdd_des, y, zero6 = params
+    n = q.shape[0]
+    reference_into(ref, t, q_des, qd_des, qdd_des)
+    for i in range(n):
+        acc = qdd_des[i]
+        for j in range(n):
+            acc += kd[i, j] * (qd_des[j] - qd[j]) + kp[i, j] * (q_des[j] - q[j])
+        y[i] = acc
+    # B̂ y + n̂ is exactly the model's inverse dynamics at q̈ = y: one RNEA, no B.
+    rnea_into(m, ws, q, qd, y, 1.0, zero6, tau_out)
+    for i in range(n):
+        signals_out[i] = q_des[i]
+        signals_out[n + i] = q_des[i] - q[i]
+        signals_out[2 * n + i] = qd_des[i] - qd[i]
+        signals_out[3 * n + i] = y[i]
+
+
+@dataclass(frozen=True, eq=False)
+class JointInverseDynamics(Controller):
+    """Joint-space inverse dynamics (computed torque) with a PD outer loop (seed A7).
+
+        τ = B̂(q) y + n̂(q, q̇),   n̂ = Ĉ(q, q̇) q̇ + F̂_v q̇ + F̂_s sgn q̇ + ĝ(q)
+        y = q̈_des + K_D (q̇_des − q̇) + K_P (q_des − q)                                      (C2)
+
+    B̂, n̂ come from the controller's ``model``.  With a perfect model (model = plant) the inner
+    loop linearises and decouples the arm to q̈ = y, so the error obeys
+
+        q̃̈ + K_D q̃̇ + K_P q̃ = 0                                                             (C3)
+
+    per joint a second-order system with ω_n² = k_P, 2ζω_n = k_D (:meth:`from_poles`).  With a
+    wrong model (e.g. ``plant.with_link_mass("link4", 0.16)``) the residual
+    B̂⁻¹[(B̂ − B)q̈ + n̂ − n] drives q̃ off zero: a steady-state error where gravity is
+    mis-compensated.  h_e is not compensated (free-space control).
+
+    Signals: ``q_des``, ``q_err``, ``qd_err``, ``y`` (the outer-loop acceleration).
+    """
+
+    model: Robot
+    reference: JointReference
+    kp: np.ndarray
+    kd: np.ndarray
+    law = joint_inverse_dynamics_law
+
+    def __post_init__(self):
+        n = self.model.n
+        _check_reference(self.reference, n)
+        object.__setattr__(self, "kp", gain_matrix(self.kp, n, "kp"))
+        object.__setattr__(self, "kd", gain_matrix(self.kd, n, "kd"))
+
+    @classmethod
+    def from_poles(cls, model: Robot, reference: JointReference, omega_n, zeta=1.0):
+        """Gains for (C3) with natural frequency ``omega_n`` [rad/s] and damping ratio ``zeta``:
+        K_P = diag(ω_n²), K_D = diag(2ζω_n)."""
+        omega = np.broadcast_to(np.asarray(omega_n, dtype=float), (model.n,))
+        zeta = np.broadcast_to(np.asarray(zeta, dtype=float), (model.n,))
+        return cls(model, reference, omega**2, 2.0 * zeta * omega)
+
+    def params(self):
+        n = self.n
+        return (self.model.arrays, make_workspace(n), np.array(self.reference.data), self.kp, self.kd,
+                np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(6))
+
+    def signals(self):
+        return (Signal.joint("q_des", self.model, "position"), Signal.joint("q_err", self.model, "error"),
+                Signal.joint("qd_err", self.model, "velocity"),
+                Signal.joint("y", self.model, "acceleration"))

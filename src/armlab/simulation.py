@@ -1,0 +1,441 @@
+"""Closed-loop simulation: ``simulate(plant, controller, ...)`` → :class:`SimulationResult`.
+
+The plant is the true :class:`~armlab.model.robot.Robot`; the controller carries its own model
+(``armlab.control.base``).  The integrated system (notation table, S-tags):
+
+    B(q) q̈ + C(q, q̇) q̇ + F_v q̇ + F_s sgn q̇ + g(q) = sat(τ) + τ_d(t, q, q̇) − Jᵀ(q) h_e      (S1)
+    τ = h(t, q, q̇, z, h_e),   ż = f(t, q, q̇, z, h_e)                                       (C0)
+
+with sat the per-joint clip at ``torque_limit`` and τ_d the disturbances of
+``armlab.disturbances`` (S2).
+
+Integrators
+-----------
+``method="rk4"``: fixed-step classical Runge–Kutta (Simulink's ode4, S3); the whole loop is one
+compiled function generated per (controller law, environment law) pair and cached on disk
+(``ARMLAB_CACHE_DIR``, default ``~/.cache/armlab``): the first run of a new controller class
+compiles it (seconds), later runs and later processes load it.
+
+``method="adaptive"``: SciPy's ``solve_ivp`` (DOP853 by default, error controlled by
+``rtol``/``atol``) calling the *same* compiled right-hand side; the accuracy reference.
+Signals are recomputed after integration on the output grid t_j = j·dt.
+
+Logging: see ``armlab.kernels.integrators`` — the RK4 loop writes row j while it integrates
+(the stage-1 evaluation at (t_j, x_j)), without allocation; ``log_every`` thins the rows.
+
+Sampled control: ``control_period`` T_c (a multiple of dt) runs the law every T_c with
+zero-order hold of τ and the discrete update z ← z + T_c ż.
+
+Divergence: a non-finite state, a joint beyond its limits by more than ``limit_margin`` × its
+range, or kinetic energy above ``max_kinetic_energy`` stops the run; ``SimulationDiverged``
+(with the result up to that point as ``.result``) is raised, or with
+``on_divergence="return"`` the result is returned with ``status == "diverged"``.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import importlib.util
+import os
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+from armlab.control.base import Controller, Environment, Signal, law_location
+from armlab.disturbances import encode_disturbances
+from armlab.errors import ArmlabError
+from armlab.kernels.integrators import TEMPLATE, no_environment_law
+from armlab.results import SimulationResult
+
+STATUS = {1: "non-finite state", 2: "joint limit exceeded", 3: "runaway kinetic energy",
+          4: "mass matrix not positive definite"}
+
+
+class SimulationError(ArmlabError, ValueError):
+    """Bad simulation settings (names the argument)."""
+
+
+class SimulationDiverged(ArmlabError):
+    """The closed loop diverged; ``result`` holds the data up to the last good step."""
+
+    def __init__(self, message: str, result: SimulationResult):
+        super().__init__(message)
+        self.result = result
+
+
+# --------------------------------------------------------------------------- compiled loops
+
+def cache_dir() -> Path:
+    """Where generated loop modules (and their numba caches) live."""
+    root = os.environ.get("ARMLAB_CACHE_DIR")
+    if root:
+        return Path(root)
+    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+    return Path(base) / "armlab"
+
+
+def _compiled_dependencies(names) -> list[Path]:
+    """Source files of the armlab modules whose compiled functions the named modules use
+    (followed transitively through the functions and modules in their namespaces)."""
+    seen, stack = set(), list(names)
+    while stack:
+        name = stack.pop()
+        if name in seen or not (name == "armlab" or name.startswith("armlab.") or name in names):
+            continue
+        seen.add(name)
+        module = sys.modules.get(name) or importlib.import_module(name)
+        for value in vars(module).values():
+            owner = getattr(value, "__module__", None) if not isinstance(value, type(sys)) else value.__name__
+            if isinstance(owner, str) and owner not in seen and owner.startswith("armlab"):
+                stack.append(owner)
+    files = []
+    for name in sorted(seen):
+        origin = getattr(sys.modules.get(name), "__file__", None)
+        if origin:
+            files.append(Path(origin))
+    return files
+
+
+def _source_fingerprint(*modules: str) -> str:
+    """A hash of the template and of every armlab source the generated loop depends on:
+    numba's disk cache checks only the generated file, so a change in the code it calls
+    must change the file's name."""
+    digest = hashlib.sha256(TEMPLATE.encode())
+    base = ("armlab.kernels.dynamics", "armlab.kernels.kinematics", "armlab.disturbances")
+    for path in _compiled_dependencies([*base, *modules]):
+        stat = path.stat()
+        digest.update(f"{path}:{stat.st_size}:{stat.st_mtime_ns}".encode())
+    return digest.hexdigest()[:16]
+
+
+_LOOPS: dict = {}
+
+
+def loop_module(law, env_law):
+    """The generated, compiled loop module for a controller law and an environment law."""
+    key = (law, env_law)
+    if key in _LOOPS:
+        return _LOOPS[key]
+    law_module, law_name = law_location(law)
+    env_module, env_name = law_location(env_law)
+    source = TEMPLATE.format(law_module=law_module, law_name=law_name, env_module=env_module,
+                             env_name=env_name)
+    stem = f"{law_module}.{law_name}.{env_module}.{env_name}".replace(".", "_")
+    name = f"armlab_loop_{stem}_{_source_fingerprint(law_module, env_module)}"
+    folder = cache_dir() / "loops"
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        probe = folder / ".write-test"
+        probe.touch()
+    except OSError:
+        folder = Path(tempfile.gettempdir()) / "armlab-loops"
+        folder.mkdir(parents=True, exist_ok=True)
+    path = folder / f"{name}.py"
+    if not path.exists() or path.read_text() != source:
+        # Write atomically: parallel processes may generate the same module.
+        handle, temporary = tempfile.mkstemp(dir=folder, suffix=".tmp")
+        with os.fdopen(handle, "w") as stream:
+            stream.write(source)
+        os.replace(temporary, path)
+    spec = importlib.util.spec_from_file_location(name, path)
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[name] = module
+    spec.loader.exec_module(module)
+    _LOOPS[key] = module
+    return module
+
+
+# --------------------------------------------------------------------------- set-up helpers
+
+def _per_joint(value, n: int, field: str, default: float) -> np.ndarray:
+    if value is None:
+        return np.full(n, default)
+    array = np.atleast_1d(np.asarray(value, dtype=float))
+    if array.shape not in ((1,), (n,)) or np.any(np.isnan(array)):
+        raise SimulationError(f"{field}: expected a number or {n} numbers, got {value!r}")
+    return np.broadcast_to(array, (n,)).astype(float)
+
+
+def _steps(span: float, dt: float, field: str) -> int:
+    count = int(round(span / dt))
+    if count < 1 or abs(count * dt - span) > 1e-9 * max(1.0, span):
+        raise SimulationError(f"{field}: {span:g} s is not a positive multiple of dt = {dt:g} s")
+    return count
+
+
+class _Setup:
+    """Everything ``simulate`` hands to the compiled code, checked once."""
+
+    def __init__(self, plant, controller, q0, qd0, t_final, dt, control_period, torque_limit,
+                 disturbance, environment, log_every, limit_margin, max_kinetic_energy):
+        if not isinstance(controller, Controller):
+            raise SimulationError(f"controller: {type(controller).__name__} is not an armlab Controller")
+        n = plant.n
+        if controller.n != n:
+            raise SimulationError(f"controller: its model has {controller.n} joints, the plant {n}")
+        self.plant, self.controller, self.environment, self.n = plant, controller, environment, n
+        if not (np.isfinite(dt) and dt > 0):
+            raise SimulationError(f"dt: must be a positive time step, got {dt!r}")
+        self.dt = float(dt)
+        self.n_steps = _steps(float(t_final), self.dt, "t_final")
+        self.every = 1 if control_period is None else _steps(float(control_period), self.dt,
+                                                             "control_period")
+        self.sampled = control_period is not None
+        self.log_every = int(log_every)
+        if self.log_every < 1:
+            raise SimulationError(f"log_every: must be a positive integer, got {log_every!r}")
+        q0 = _per_joint(q0, n, "q0", 0.0)
+        qd0 = _per_joint(qd0, n, "qd0", 0.0)
+        z0 = np.asarray(controller.initial_state(), dtype=float).ravel()
+        self.x0 = np.concatenate([q0, qd0, z0])
+        if not np.all(np.isfinite(self.x0)):
+            raise SimulationError("q0: initial state must be finite")
+        self.k = z0.shape[0]
+        self.lim = _per_joint(torque_limit, n, "torque_limit", np.inf)
+        if np.any(self.lim <= 0):
+            raise SimulationError("torque_limit: must be positive")
+        arrays = plant.arrays
+        span = arrays.q_max - arrays.q_min
+        margin = np.where(np.isfinite(span), float(limit_margin) * span, np.inf)
+        self.q_lo = np.where(np.isfinite(arrays.q_min), arrays.q_min - margin, -np.inf)
+        self.q_hi = np.where(np.isfinite(arrays.q_max), arrays.q_max + margin, np.inf)
+        self.ke_max = float(max_kinetic_energy)
+        self.dist = encode_disturbances(disturbance, n)
+        self.disturbance = disturbance
+        if environment is not None and not isinstance(environment, Environment):
+            raise SimulationError(f"environment: {type(environment).__name__} is not an armlab Environment")
+        self.env_law = type(environment).law if environment is not None else no_environment_law
+        self.eparams = environment.params() if environment is not None else (np.zeros(1),)
+        self.signals: tuple[Signal, ...] = tuple(controller.signals())
+        self.sig_width = sum(s.width for s in self.signals)
+        self.loops = loop_module(type(controller).law, self.env_law)
+        self.rows = self.n_steps // self.log_every + 1
+
+    def outputs(self, rows=None):
+        rows = self.rows if rows is None else rows
+        n = self.n
+        return (np.zeros(rows), np.zeros((rows, n)), np.zeros((rows, n)), np.zeros((rows, n)),
+                np.zeros((rows, n)), np.zeros((rows, self.k)), np.zeros((rows, self.sig_width)),
+                np.zeros((rows, n)), np.zeros((rows, n)), np.zeros((rows, 6)))
+
+    def settings(self):
+        fset = np.array([0.0, self.dt, self.ke_max])
+        iset = np.array([self.n, self.n_steps, self.every, self.log_every,
+                         int(self.environment is not None), 10, int(self.sampled), self.sig_width],
+                        dtype=np.int64)
+        return fset, iset
+
+    def result(self, out, rows, method, meta, status="ok", diagnosis=""):
+        o_t, o_q, o_qd, o_qdd, o_tau, o_z, o_sig, o_cmd, o_dist, o_he = (a[:rows] for a in out)
+        plant, controller = self.plant, self.controller
+        labels = {"q": tuple(plant.joint_names), "qd": tuple(plant.joint_names),
+                  "qdd": tuple(plant.joint_names), "tau": tuple(plant.joint_names),
+                  "z": tuple(controller.state_labels())}
+        units = {"q": Signal.joint("q", plant, "position").units,
+                 "qd": Signal.joint("qd", plant, "velocity").units,
+                 "qdd": Signal.joint("qdd", plant, "acceleration").units,
+                 "tau": Signal.joint("tau", plant, "effort").units,
+                 "z": tuple(getattr(controller, "state_units", lambda: ("",) * self.k)())}
+        signals, start = {}, 0
+        for signal in self.signals:
+            signals[signal.name] = np.ascontiguousarray(o_sig[:, start:start + signal.width])
+            labels[signal.name], units[signal.name] = signal.labels, signal.units
+            start += signal.width
+        effort = Signal.joint("tau_cmd", plant, "effort")
+        if np.any(np.isfinite(self.lim)):
+            signals["tau_cmd"] = o_cmd
+            labels["tau_cmd"], units["tau_cmd"] = effort.labels, effort.units
+        if self.dist[0] > 0:
+            signals["tau_dist"] = o_dist
+            labels["tau_dist"], units["tau_dist"] = effort.labels, effort.units
+        if self.environment is not None:
+            signals["h_e"] = o_he
+            labels["h_e"] = ("fx", "fy", "fz", "mx", "my", "mz")
+            units["h_e"] = ("N",) * 3 + ("N·m",) * 3
+        info = {"plant": plant.name, "controller": controller.describe(), "method": method,
+                "dt": self.dt, "t_final": self.n_steps * self.dt,
+                "control_period": self.every * self.dt if self.sampled else None,
+                "torque_limit": self.lim.tolist(), "log_every": self.log_every,
+                "disturbance": _describe_terms(self.disturbance),
+                "environment": self.environment.describe() if self.environment is not None else None}
+        info.update(meta or {})
+        return SimulationResult(t=o_t.copy(), q=o_q.copy(), qd=o_qd.copy(), qdd=o_qdd.copy(),
+                                tau=o_tau.copy(), z=o_z.copy(), signals=signals, labels=labels,
+                                units=units, meta=info, status=status, diagnosis=diagnosis)
+
+    def diagnosis(self, status, step, joint, t):
+        what = STATUS.get(status, f"status {status}")
+        if status == 2:
+            what += (f" on joint {self.plant.joint_names[joint]} (beyond [{self.q_lo[joint]:.4g}, "
+                     f"{self.q_hi[joint]:.4g}])")
+        elif status == 1 and joint >= 0:
+            what += f" on joint {self.plant.joint_names[joint]}"
+        elif status == 3:
+            what += f" (above {self.ke_max:g} J)"
+        return f"simulation diverged at t = {t:.6g} s (step {step}): {what}"
+
+
+def _describe_terms(terms):
+    if terms is None:
+        return []
+    terms = [terms] if hasattr(terms, "encode") else list(terms)
+    return [t.describe() for t in terms]
+
+
+def _finish(setup, result, status, step, joint, on_divergence):
+    if status == 0:
+        return result
+    message = setup.diagnosis(status, step, joint, step * setup.dt)
+    result = SimulationResult(**{**vars(result), "status": "diverged", "diagnosis": message})
+    if on_divergence == "return":
+        return result
+    raise SimulationDiverged(message, result)
+
+
+# --------------------------------------------------------------------------- public API
+
+def simulate(plant, controller, *, q0, qd0=None, t_final, dt, method="rk4", control_period=None,
+             torque_limit=None, disturbance=None, environment=None, log_every=1,
+             limit_margin=0.5, max_kinetic_energy=1e6, rtol=1e-10, atol=1e-12,
+             integrator="DOP853", on_divergence="raise", meta=None) -> SimulationResult:
+    """Simulate ``plant`` under ``controller`` from (q0, qd0) over [0, t_final].
+
+    Parameters
+    ----------
+    plant : Robot — the true robot.
+    controller : Controller — holds its own model of the plant (``armlab.control.base``).
+    q0, qd0 : (n,) initial joint positions [m | rad] and velocities (default 0).
+    t_final, dt : duration and step [s]; t_final must be a multiple of dt.
+    method : "rk4" (compiled fixed step, S3) or "adaptive" (``solve_ivp`` with ``integrator``,
+        ``rtol``, ``atol``; samples logged every dt).
+    control_period : None (continuous control) or T_c [s], a multiple of dt (ZOH).
+    torque_limit : None, a number or (n,) [N | N·m]: per-joint saturation of τ.
+    disturbance : a ``TorqueDisturbance`` or a list of them (S2).
+    environment : None (free space) or an ``Environment``; h_e in (S1).
+    log_every : keep every m-th step in the result.
+    limit_margin : a joint further than this fraction of its range outside its limits diverges.
+    max_kinetic_energy : [J] bound of ½ q̇ᵀ B q̇ (checked every 10 steps).
+    on_divergence : "raise" (``SimulationDiverged`` with ``.result``) or "return".
+    meta : extra JSON-able entries for ``result.meta`` (scenario name, …).
+    """
+    if method not in ("rk4", "adaptive"):
+        raise SimulationError(f"method: {method!r} is not 'rk4' or 'adaptive'")
+    if on_divergence not in ("raise", "return"):
+        raise SimulationError(f"on_divergence: {on_divergence!r} is not 'raise' or 'return'")
+    setup = _Setup(plant, controller, q0, qd0, t_final, dt, control_period, torque_limit,
+                   disturbance, environment, log_every, limit_margin, max_kinetic_energy)
+    if method == "rk4":
+        return _run_rk4(setup, controller.params(), meta, on_divergence)
+    return _run_adaptive(setup, controller.params(), meta, on_divergence, rtol, atol, integrator)
+
+
+def _run_rk4(setup, cparams, meta, on_divergence):
+    fset, iset = setup.settings()
+    out = setup.outputs()
+    start = time.perf_counter()
+    status, rows, step, joint = setup.loops.rk4_run(
+        setup.plant.arrays, cparams, setup.eparams, setup.dist, setup.x0, fset, iset, setup.lim,
+        setup.q_lo, setup.q_hi, out)
+    meta = {**(meta or {}), "wall_time": time.perf_counter() - start}
+    result = setup.result(out, rows, "rk4", meta)
+    return _finish(setup, result, status, step, joint, on_divergence)
+
+
+def _run_adaptive(setup, cparams, meta, on_divergence, rtol, atol, integrator):
+    from scipy.integrate import solve_ivp
+
+    from armlab.kernels.dynamics import make_workspace
+
+    loops, pm, n = setup.loops, setup.plant.arrays, setup.n
+    pws = make_workspace(n)
+    sc = loops.make_scratch(n, setup.k, setup.sig_width)
+    has_env = setup.environment is not None
+    xdot = np.zeros_like(setup.x0)
+    grid = np.arange(setup.n_steps + 1) * setup.dt
+    out = setup.outputs(setup.n_steps + 1)
+    start = time.perf_counter()
+
+    def rhs(t, x, call_law, z_rate):
+        loops.rhs(t, x, pm, pws, cparams, setup.eparams, setup.dist, has_env, call_law, z_rate,
+                  setup.lim, sc, xdot)
+        return xdot.copy()
+
+    x = setup.x0.copy()
+    rows, status, step, joint = 0, 0, 0, -1
+    # Continuous control integrates [0, t_final] at once; sampled control integrates each
+    # control period with τ held, after running the law at the sample.
+    spans = [(0, setup.n_steps)] if not setup.sampled else [
+        (i, min(i + setup.every, setup.n_steps)) for i in range(0, setup.n_steps, setup.every)]
+    zdot_held = np.zeros(setup.k)
+    for first, last in spans:
+        if setup.sampled:
+            if first > 0:
+                x[2 * n:] += setup.every * setup.dt * zdot_held
+            loops.rhs(grid[first], x, pm, pws, cparams, setup.eparams, setup.dist, has_env, True,
+                      0.0, setup.lim, sc, xdot)
+            zdot_held = sc[5].copy()
+        solution = solve_ivp(rhs, (grid[first], grid[last]), x, method=integrator, rtol=rtol,
+                             atol=atol, t_eval=grid[first:last + 1],
+                             args=(not setup.sampled, 0.0 if setup.sampled else 1.0))
+        xs = np.ascontiguousarray(solution.y.T)
+        keep = xs.shape[0] if last == setup.n_steps else xs.shape[0] - 1
+        for r in range(keep):
+            code, where = loops.check_state(pm, pws, xs[r], n, setup.q_lo, setup.q_hi, setup.ke_max,
+                                            True, np.zeros(n), np.zeros(6))
+            if code != 0:
+                status, step, joint, keep = code, first + r, where, r
+                break
+        loops.log_rows(grid[first:first + keep], xs[:keep], pm, cparams, setup.eparams, setup.dist,
+                       has_env, not setup.sampled, setup.lim, sc, out, rows)
+        rows += keep
+        if status == 0 and solution.status != 0:
+            status, step = 1, first + keep
+        if status != 0:
+            break
+        x = xs[-1].copy()
+    keep_rows = np.arange(0, rows, setup.log_every)
+    thinned = tuple(a[keep_rows] for a in out)
+    meta = {**(meta or {}), "wall_time": time.perf_counter() - start, "integrator": integrator,
+            "rtol": rtol, "atol": atol}
+    result = setup.result(thinned, len(keep_rows), "adaptive", meta)
+    return _finish(setup, result, status, step, joint, on_divergence)
+
+
+def simulate_batch(plant, controllers, *, q0, qd0=None, t_final, dt, torque_limit=None,
+                   disturbance=None, environment=None, log_every=1, limit_margin=0.5,
+                   max_kinetic_energy=1e6, meta=None) -> list[SimulationResult]:
+    """RK4 runs of many controllers of one class (a gain sweep) in parallel on all cores.
+
+    Every controller must be of the same class (same law and parameter layout).  Returns one
+    :class:`SimulationResult` per controller, in order; a diverged run has
+    ``status == "diverged"`` (no exception).  Continuous control only.
+    """
+    from numba.typed import List
+
+    controllers = list(controllers)
+    if not controllers:
+        raise SimulationError("controllers: empty")
+    kinds = {type(c) for c in controllers}
+    if len(kinds) != 1:
+        raise SimulationError(f"controllers: one class expected, got {sorted(k.__name__ for k in kinds)}")
+    setups = [_Setup(plant, c, q0, qd0, t_final, dt, None, torque_limit, disturbance, environment,
+                     log_every, limit_margin, max_kinetic_energy) for c in controllers]
+    first = setups[0]
+    fset, iset = first.settings()
+    params = List()
+    outs = List()
+    for controller in controllers:
+        params.append(controller.params())
+        outs.append(first.outputs())
+    x0s = np.stack([s.x0 for s in setups])
+    report = np.zeros((len(controllers), 4), dtype=np.int64)
+    first.loops.rk4_batch(plant.arrays, params, first.eparams, first.dist, x0s, fset, iset,
+                          first.lim, first.q_lo, first.q_hi, outs, report)
+    results = []
+    for setup, out, (status, rows, step, joint) in zip(setups, outs, report, strict=True):
+        result = setup.result(out, rows, "rk4", meta)
+        results.append(_finish(setup, result, status, step, joint, "return"))
+    return results
