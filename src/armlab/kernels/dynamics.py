@@ -45,6 +45,11 @@ from numba import njit
 
 from armlab.model.robot import PRISMATIC
 
+# The kernels never allocate, so they run without reference counting: with it, every array
+# taken out of ``m`` or ``ws`` and every row view costs an atomic increment/decrement pair,
+# which made the 3-joint RNEA ~20× slower than its arithmetic.
+kernel = njit(cache=True, _nrt=False)
+
 
 class DynamicsWorkspace(NamedTuple):
     """Scratch arrays of the dynamics kernels for an n-joint robot (all float64).
@@ -77,17 +82,59 @@ class DynamicsWorkspace(NamedTuple):
 
 
 @njit(cache=True)
-def make_workspace(n):
-    """A :class:`DynamicsWorkspace` for an n-joint robot."""
-    return DynamicsWorkspace(
-        np.zeros((n, 3, 3)), np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((n, 3)),
-        np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((n, 3, 3)),
-        np.zeros((n, 3)), np.zeros(n), np.zeros((n, n)), np.zeros(n), np.zeros(n),
-        np.zeros(n), np.zeros(n), np.zeros(n), np.zeros((3, 3)),
-    )
+def workspace_size(n):
+    """Number of float64 entries of a workspace for n joints (see :func:`workspace_from_buffer`)."""
+    return 45 * n + n * n + 9
 
 
 @njit(cache=True)
+def workspace_from_buffer(buf, n):
+    """A :class:`DynamicsWorkspace` whose arrays are views into ``buf`` (workspace_size(n),);
+    one allocation serves every scratch array.  ``buf`` must be zero where ``zero`` lies."""
+    o = 0
+    R = buf[o:o + 9 * n].reshape((n, 3, 3))
+    o += 9 * n
+    p = buf[o:o + 3 * n].reshape((n, 3))
+    o += 3 * n
+    w = buf[o:o + 3 * n].reshape((n, 3))
+    o += 3 * n
+    wd = buf[o:o + 3 * n].reshape((n, 3))
+    o += 3 * n
+    a = buf[o:o + 3 * n].reshape((n, 3))
+    o += 3 * n
+    f = buf[o:o + 3 * n].reshape((n, 3))
+    o += 3 * n
+    mu = buf[o:o + 3 * n].reshape((n, 3))
+    o += 3 * n
+    Ic = buf[o:o + 9 * n].reshape((n, 3, 3))
+    o += 9 * n
+    hc = buf[o:o + 3 * n].reshape((n, 3))
+    o += 3 * n
+    mc = buf[o:o + n]
+    o += n
+    L = buf[o:o + n * n].reshape((n, n))
+    o += n * n
+    v1 = buf[o:o + n]
+    o += n
+    v2 = buf[o:o + n]
+    o += n
+    t1 = buf[o:o + n]
+    o += n
+    t2 = buf[o:o + n]
+    o += n
+    zero = buf[o:o + n]
+    o += n
+    R0 = buf[o:o + 9].reshape((3, 3))
+    return DynamicsWorkspace(R, p, w, wd, a, f, mu, Ic, hc, mc, L, v1, v2, t1, t2, zero, R0)
+
+
+@njit(cache=True)
+def make_workspace(n):
+    """A :class:`DynamicsWorkspace` for an n-joint robot (one zeroed buffer)."""
+    return workspace_from_buffer(np.zeros(workspace_size(n)), n)
+
+
+@kernel
 def local_transforms_into(m, q, R, p):
     """J_i in J_{i−1}: R[i] = X_R,i M_R(q_i), p[i] = X_p,i + M_p(q_i) (K1 in joint frames)."""
     n = q.shape[0]
@@ -107,7 +154,7 @@ def local_transforms_into(m, q, R, p):
                 p[i, r] = m.tree_p[i, r]
 
 
-@njit(cache=True)
+@kernel
 def _rnea_core(m, ws, q, qd, qdd, gravity_scale, h_e, with_wrench, with_friction, tau_out):
     """Newton–Euler recursion (Siciliano §7.5) in joint frames; transforms already in ws."""
     n = q.shape[0]
@@ -252,7 +299,7 @@ def _rnea_core(m, ws, q, qd, qdd, gravity_scale, h_e, with_wrench, with_friction
                 tau_out[i] -= m.coulomb[i]
 
 
-@njit(cache=True)
+@kernel
 def _has_wrench(h_e):
     for k in range(6):
         if h_e[k] != 0.0:
@@ -260,7 +307,7 @@ def _has_wrench(h_e):
     return False
 
 
-@njit(cache=True)
+@kernel
 def rnea_into(m, ws, q, qd, qdd, gravity_scale, h_e, tau_out):
     """Inverse dynamics τ of (D1) with every term, by recursive Newton–Euler.
 
@@ -272,7 +319,7 @@ def rnea_into(m, ws, q, qd, qdd, gravity_scale, h_e, tau_out):
     _rnea_core(m, ws, q, qd, qdd, gravity_scale, h_e, _has_wrench(h_e), True, tau_out)
 
 
-@njit(cache=True)
+@kernel
 def gravity_into(m, ws, q, g_out):
     """Gravity torque g(q) = ∂U/∂q, (n,) [N | N·m] (RNEA with q̇ = q̈ = 0)."""
     local_transforms_into(m, q, ws.R, ws.p)
@@ -280,14 +327,14 @@ def gravity_into(m, ws, q, g_out):
     _rnea_core(m, ws, q, z, z, 1.0, ws.R0[0], False, False, g_out)
 
 
-@njit(cache=True)
+@kernel
 def bias_into(m, ws, q, qd, h_e, out):
     """Everything but inertia: C q̇ + F_v q̇ + F_s sgn q̇ + g + Jᵀ h_e, (n,) (RNEA with q̈ = 0)."""
     local_transforms_into(m, q, ws.R, ws.p)
     _rnea_core(m, ws, q, qd, ws.zero, 1.0, h_e, _has_wrench(h_e), True, out)
 
 
-@njit(cache=True)
+@kernel
 def mass_matrix_into(m, ws, q, B_out):
     """Joint-space inertia matrix B(q), (n, n), by the composite-rigid-body algorithm.
 
@@ -386,7 +433,7 @@ def mass_matrix_into(m, ws, q, B_out):
             B_out[i, j - 1] = value
 
 
-@njit(cache=True)
+@kernel
 def coriolis_matrix_into(m, ws, q, qd, C_out):
     """Christoffel-symbol C(q, q̇), (n, n), so that Ḃ − 2C is skew-symmetric.
 
@@ -422,7 +469,7 @@ def coriolis_matrix_into(m, ws, q, qd, C_out):
             C_out[r, j] = 0.25 * norm * (t1[r] - t2[r])
 
 
-@njit(cache=True)
+@kernel
 def cholesky_solve_inplace(A, b):
     """b ← A⁻¹ b for symmetric positive-definite A (n, n), overwriting A's lower triangle with
     its Cholesky factor L (A = L Lᵀ).  Returns False if A is not positive definite."""
@@ -453,7 +500,7 @@ def cholesky_solve_inplace(A, b):
     return True
 
 
-@njit(cache=True)
+@kernel
 def forward_dynamics_into(m, ws, q, qd, tau, h_e, qdd_out):
     """Joint accelerations of (D1): B q̈ = τ − (C q̇ + F_v q̇ + F_s sgn q̇ + g + Jᵀ h_e).  (D5)
 
@@ -466,3 +513,86 @@ def forward_dynamics_into(m, ws, q, qd, tau, h_e, qdd_out):
         qdd_out[k] = tau[k] - qdd_out[k]
     mass_matrix_into(m, ws, q, ws.L)
     return cholesky_solve_inplace(ws.L, qdd_out)
+
+
+@kernel
+def kinetic_energy_kernel(m, ws, q, qd):
+    """Kinetic energy [J] summed body by body, rotors included (D3, D6):
+
+        T = Σ_i ½ m_i ‖ṗ_Ci‖² + ½ ω_iᵀ I_Ci ω_i + ½ I_mi (z_miᵀ ω_{i−1} + k_ri q̇_i)²       (D6)
+    """
+    n = q.shape[0]
+    R, p, w, v = ws.R, ws.p, ws.w, ws.a
+    local_transforms_into(m, q, R, p)
+    energy = 0.0
+    for i in range(n):
+        if i == 0:
+            wpx = wpy = wpz = 0.0
+            tx = ty = tz = 0.0
+        else:
+            wpx, wpy, wpz = w[i - 1, 0], w[i - 1, 1], w[i - 1, 2]
+            px, py, pz = p[i, 0], p[i, 1], p[i, 2]
+            tx = v[i - 1, 0] + wpy * pz - wpz * py
+            ty = v[i - 1, 1] + wpz * px - wpx * pz
+            tz = v[i - 1, 2] + wpx * py - wpy * px
+        kr = m.gear_ratio[i]
+        zx, zy, zz = m.tree_R[i, 0, 2], m.tree_R[i, 1, 2], m.tree_R[i, 2, 2]
+        s = zx * wpx + zy * wpy + zz * wpz + kr * qd[i]
+        energy += 0.5 * m.rotor_inertia[i] * s * s
+        Ri = R[i]
+        wx = Ri[0, 0] * wpx + Ri[1, 0] * wpy + Ri[2, 0] * wpz
+        wy = Ri[0, 1] * wpx + Ri[1, 1] * wpy + Ri[2, 1] * wpz
+        wz = Ri[0, 2] * wpx + Ri[1, 2] * wpy + Ri[2, 2] * wpz
+        vx = Ri[0, 0] * tx + Ri[1, 0] * ty + Ri[2, 0] * tz
+        vy = Ri[0, 1] * tx + Ri[1, 1] * ty + Ri[2, 1] * tz
+        vz = Ri[0, 2] * tx + Ri[1, 2] * ty + Ri[2, 2] * tz
+        if m.joint_type[i] == PRISMATIC:
+            vz += qd[i]
+        else:
+            wz += qd[i]
+        w[i, 0], w[i, 1], w[i, 2] = wx, wy, wz
+        v[i, 0], v[i, 1], v[i, 2] = vx, vy, vz
+        cx, cy, cz = m.com[i, 0], m.com[i, 1], m.com[i, 2]
+        ux = vx + wy * cz - wz * cy
+        uy = vy + wz * cx - wx * cz
+        uz = vz + wx * cy - wy * cx
+        I = m.inertia[i]
+        rot = (wx * (I[0, 0] * wx + I[0, 1] * wy + I[0, 2] * wz)
+               + wy * (I[1, 0] * wx + I[1, 1] * wy + I[1, 2] * wz)
+               + wz * (I[2, 0] * wx + I[2, 1] * wy + I[2, 2] * wz))
+        energy += 0.5 * m.mass[i] * (ux * ux + uy * uy + uz * uz) + 0.5 * rot
+    return energy
+
+
+@kernel
+def potential_energy_kernel(m, ws, q):
+    """Gravitational potential energy [J], zero at Σ_0's origin:
+
+        U = −Σ_i m_i g_0ᵀ p_Ci      (p_Ci, g_0 in Σ_0)                                   (D7)
+    """
+    n = q.shape[0]
+    R, p, A = ws.R, ws.p, ws.R0
+    local_transforms_into(m, q, R, p)
+    for r in range(3):
+        for c in range(3):
+            A[r, c] = 1.0 if r == c else 0.0
+    ox = oy = oz = 0.0
+    energy = 0.0
+    g = m.gravity
+    for i in range(n):
+        Ri = R[i]
+        px, py, pz = p[i, 0], p[i, 1], p[i, 2]
+        ox, oy, oz = (ox + A[0, 0] * px + A[0, 1] * py + A[0, 2] * pz,
+                      oy + A[1, 0] * px + A[1, 1] * py + A[1, 2] * pz,
+                      oz + A[2, 0] * px + A[2, 1] * py + A[2, 2] * pz)
+        for r in range(3):
+            b0, b1, b2 = A[r, 0], A[r, 1], A[r, 2]
+            A[r, 0] = b0 * Ri[0, 0] + b1 * Ri[1, 0] + b2 * Ri[2, 0]
+            A[r, 1] = b0 * Ri[0, 1] + b1 * Ri[1, 1] + b2 * Ri[2, 1]
+            A[r, 2] = b0 * Ri[0, 2] + b1 * Ri[1, 2] + b2 * Ri[2, 2]
+        cx, cy, cz = m.com[i, 0], m.com[i, 1], m.com[i, 2]
+        gx = ox + A[0, 0] * cx + A[0, 1] * cy + A[0, 2] * cz
+        gy = oy + A[1, 0] * cx + A[1, 1] * cy + A[1, 2] * cz
+        gz = oz + A[2, 0] * cx + A[2, 1] * cy + A[2, 2] * cz
+        energy -= m.mass[i] * (g[0] * gx + g[1] * gy + g[2] * gz)
+    return energy
