@@ -3,6 +3,13 @@
 Conventions (frames, twist and wrench ordering, Euler angles, units): ``docs/notation.md``.
 """
 
+from armlab.dynamics import coriolis_matrix as coriolis_matrix
+from armlab.dynamics import forward_dynamics as forward_dynamics
+from armlab.dynamics import gravity_torque as gravity_torque
+from armlab.dynamics import inertia_matrix as inertia_matrix
+from armlab.dynamics import inverse_dynamics as inverse_dynamics
+from armlab.dynamics import kinetic_energy as kinetic_energy
+from armlab.dynamics import potential_energy as potential_energy
 from armlab.inverse_kinematics import UnreachableTargetError as UnreachableTargetError
 from armlab.inverse_kinematics import inverse_kinematics as inverse_kinematics
 from armlab.kinematics import analytic_jacobian as analytic_jacobian
