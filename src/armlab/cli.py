@@ -16,6 +16,7 @@ from armlab.errors import ArmlabError
 
 COMMANDS = (
     "robots",
+    "derive",
     "demo",
 )
 """Modules of ``armlab.commands``, in the order ``armlab --help`` lists them."""

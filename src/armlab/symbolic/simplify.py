@@ -26,8 +26,8 @@ def count_ops(obj) -> int:
     return int(sp.count_ops(obj))
 
 
-def trig_symbols(expr, variables) -> dict:
-    """{sin(q): s_q, cos(q): c_q} for every revolute variable appearing in ``expr``."""
+def trig_symbols(variables) -> dict:
+    """{sin(q): s_q, cos(q): c_q} for every revolute variable."""
     table = {}
     for q in variables:
         table[sp.sin(q)] = sp.Symbol(f"s__{q}", real=True)
@@ -35,51 +35,53 @@ def trig_symbols(expr, variables) -> dict:
     return table
 
 
-def trig_poly_normal(expr, angles) -> sp.Expr:
-    """Exact normal form of a polynomial in sin/cos of ``angles`` (s_i² → 1 − c_i²)."""
-    expr = sp.expand(sp.expand_trig(expr)) if expr.has(*[sp.sin, sp.cos]) else sp.expand(expr)
-    table = trig_symbols(expr, angles)
-    poly_expr = expr.xreplace(table)
-    back = {v: k for k, v in table.items()}
+def _polynomial_form(expr, angles) -> tuple[sp.Expr, dict]:
+    """(P, back): ``expr`` with sin/cos of ``angles`` as symbols, expanded and reduced modulo
+    s² + c² − 1 (s^k → s^(k mod 2) (1 − c²)^(k // 2)); ``back`` maps the symbols back."""
+    if angles and expr.has(sp.sin, sp.cos):
+        expr = sp.expand_trig(expr)
+    table = trig_symbols(angles)
+    P = sp.expand(expr.xreplace(table))
     for q in angles:
         s, c = table[sp.sin(q)], table[sp.cos(q)]
-        if poly_expr.has(s):
-            poly_expr = sp.expand(_reduce_square(poly_expr, s, c))
-    return poly_expr.xreplace(back)
+        if P.has(s):
+            P = sp.expand(P.replace(
+                lambda e, s=s: e.is_Pow and e.base == s and e.exp.is_Integer and e.exp >= 2,
+                lambda e, s=s, c=c: s ** (e.exp % 2) * (1 - c**2) ** (e.exp // 2)))
+    return P, {v: k for k, v in table.items()}
 
 
-def _reduce_square(expr, s, c):
-    """Replace s^k (k ≥ 2) by s^(k mod 2) (1 − c²)^(k // 2)."""
-    def repl(power):
-        base, exp = power.as_base_exp()
-        if base == s and exp.is_Integer and exp >= 2:
-            return s ** (exp % 2) * (1 - c**2) ** (exp // 2)
-        return power
-    return expr.replace(lambda e: e.is_Pow and e.base == s, repl)
+def trig_poly_normal(expr, angles) -> sp.Expr:
+    """Exact normal form of a polynomial in sin/cos of ``angles`` (zero iff ``expr`` ≡ 0)."""
+    P, back = _polynomial_form(sp.sympify(expr), tuple(angles))
+    return P.xreplace(back)
 
 
 def compact(expr, angles=(), *, collect_by=(), deep: bool = False) -> sp.Expr:
-    """A compact equivalent of ``expr`` (see the module docstring for the two routes).
-
-    ``deep`` also tries ``sympy.simplify`` (slow; for final results such as B, C, g) and keeps
-    whichever form has fewer operations.
+    """A compact equivalent of ``expr``: the trigonometric-polynomial normal form of its
+    numerator and denominator, with common factors pulled out, collected on ``collect_by``
+    and, with ``deep``, factored; whichever of these has the fewest operations is returned.
     """
     expr = sp.sympify(expr)
-    if expr.is_Number or expr.is_Symbol:
+    if expr.is_Number or expr.is_Symbol or not expr.free_symbols:
         return expr
-    if sp.count_ops(expr) >= SMALL:
-        normal = trig_poly_normal(expr, angles)
-        return sp.collect(normal, list(collect_by)) if collect_by else normal
-    result = sp.expand(expr)
-    if result.has(sp.sin, sp.cos):
-        result = sp.trigsimp(result)
-    result = sp.factor_terms(result)
-    candidates = [result]
+    angles = tuple(angles)
+    numerator, denominator = sp.fraction(sp.together(expr)) if deep else (expr, sp.Integer(1))
+    P, back = _polynomial_form(numerator, angles)
+    Q, _ = _polynomial_form(denominator, angles)
+    candidates = [P, sp.factor_terms(P)]
     if collect_by:
-        candidates.append(sp.collect(sp.expand(result), list(collect_by)))
-    if deep:
-        candidates.append(sp.simplify(result))
-    return min(candidates, key=sp.count_ops)
+        candidates.append(sp.collect(P, list(collect_by)))
+    if deep and sp.count_ops(P) < SMALL:
+        factored = sp.factor(P)
+        candidates.append(factored)
+        if collect_by:
+            candidates.append(sp.collect(sp.factor_terms(P), list(collect_by), func=sp.factor))
+    best = min(candidates, key=sp.count_ops)
+    if Q != 1:
+        Q = min([Q, sp.factor(Q)], key=sp.count_ops) if sp.count_ops(Q) < SMALL else Q
+        best = best / Q
+    return best.xreplace(back)
 
 
 def compact_matrix(M, angles=(), *, collect_by=(), deep: bool = False) -> sp.Matrix:

@@ -1,0 +1,233 @@
+"""The seed's chain A1–A5 as structured data: sections of (label, SymPy expression) items.
+
+:func:`derive` is what ``armlab derive`` prints and what a report renders (for instance as
+MathML with :func:`armlab.symbolic.render.to_mathml`).  Every label exists as Unicode text
+(``Item.label``) and as LaTeX (``Item.tex``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import sympy as sp
+
+from armlab.model.robot import Robot
+from armlab.symbolic import energy, kinematics, lagrange, newton_euler, operational
+from armlab.symbolic.model import SymbolicRobot, symbolic_robot
+from armlab.symbolic.simplify import compact_matrix, count_ops
+
+ASSIGNMENTS = ("A1", "A2", "A3", "A4", "A5")
+TITLES = {
+    "A1": "DH tables, direct and inverse kinematics, Jacobians",
+    "A2": "Steiner, inertia tensors, partial Jacobians, kinetic and potential energy, B(q)",
+    "A3": "Lagrangian, equations of motion, C(q, q̇) by Christoffel symbols, g(q)",
+    "A4": "Recursive Newton–Euler; B, C q̇, g from NE and their identity with Lagrange",
+    "A5": "Dynamic model in operational space",
+}
+_SUB = str.maketrans("0123456789", "₀₁₂₃₄₅₆₇₈₉")
+_SUP = str.maketrans("0123456789e", "⁰¹²³⁴⁵⁶⁷⁸⁹ᵉ")
+
+
+class Item(tuple):
+    """One result, a ``(label, expr)`` pair (Unicode label, SymPy object) that also carries
+    its LaTeX label as ``tex``."""
+
+    def __new__(cls, label: str, expr, tex: str = ""):
+        item = super().__new__(cls, (label, expr))
+        item.tex = tex or label
+        return item
+
+    @property
+    def label(self) -> str:
+        return self[0]
+
+    @property
+    def expr(self):
+        return self[1]
+
+
+@dataclass
+class Section:
+    key: str
+    title: str
+    items: list[Item] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)
+
+    def add(self, label: str, expr, tex: str) -> None:
+        self.items.append(Item(label, expr, tex))
+
+    @property
+    def assignment(self) -> int:
+        """The seed assignment number (1 for A1, …)."""
+        return int(self.key[1:])
+
+    def pairs(self) -> list[tuple[str, sp.Basic]]:
+        """[(label, expr), …]."""
+        return [(item.label, item.expr) for item in self.items]
+
+
+def _T(i, j) -> tuple[str, str]:
+    """Label of T_i^j (frame i seen from frame j) in Unicode and LaTeX."""
+    return f"T{str(i).translate(_SUB)}^{j}", f"T_{{{i}}}^{{{j}}}"
+
+
+def _a1(sr: SymbolicRobot, frame: str) -> Section:
+    s = Section("A1", TITLES["A1"])
+    K = kinematics
+    for table_frame in ("0", "base"):
+        table = K.dh_table(sr, table_frame)
+        if table is not None and (table_frame == "0" or sr.base_dh is not None):
+            where = "Σ₀" if table_frame == "0" else "Σ_base"
+            s.add(f"DH table from {where} (a, α, d, θ)", table,
+                  rf"\text{{DH}}_{{\Sigma_{{{table_frame}}}}}\;(a,\ \alpha,\ d,\ \theta)")
+    if sr.base != sp.eye(4):
+        s.add("T₀^base", sr.base, r"T_{0}^{\mathrm{base}}")
+    for i, A in enumerate(K.relative_transforms(sr), start=1):
+        label, tex = _T(i, i - 1)
+        s.add(label, A, tex)
+    for f in ("0", "base") if frame == "base" else ("0",):
+        for i, T in enumerate(K.link_transforms(sr, f), start=1):
+            label, tex = _T(i, f)
+            s.add(label, T, tex.replace("{base}", r"{\mathrm{base}}"))
+        if sr.tool != sp.eye(4):
+            label, tex = _T("e", f)
+            s.add(label, K.end_effector_pose(sr, f), tex.replace("{base}", r"{\mathrm{base}}"))
+        else:
+            s.notes.append(f"Σ_e = Σ_{sr.n}: the end-effector pose is T{str(sr.n).translate(_SUB)}^{f}.")
+    solutions = K.position_inverse_kinematics(sr, frame)
+    for k, branch in enumerate(solutions, start=1):
+        lhs = sp.Matrix(list(branch))
+        s.add(f"IK branch {k} (p_e = (p_x, p_y, p_z) in Σ_{frame})",
+              sp.Eq(lhs, sp.Matrix(list(branch.values())), evaluate=False),
+              rf"\text{{IK, branch {k}}}")
+    if sr.n <= 3 and not solutions:
+        s.notes.append("No closed-form inverse kinematics found for the position equations.")
+    where = r"\mathrm{base}" if frame == "base" else "0"
+    s.add(f"J (geometric, Σ_{frame})", K.geometric_jacobian(sr, frame), rf"J^{{{where}}}")
+    J_A, phi = K.analytical_jacobian(sr, frame)
+    s.add(f"φ_e (ZYZ of R_e in Σ_{frame})", phi, rf"\phi_e^{{{where}}}")
+    s.add(f"J_A (analytical, ZYZ, Σ_{frame})", J_A, rf"J_A^{{{where}}}")
+    return s
+
+
+def _a2(sr: SymbolicRobot) -> Section:
+    s = Section("A2", TITLES["A2"])
+    E = energy
+    lhs, rhs, difference = E.steiner_identity()
+    s.add("I_C + m Sᵀ(r) S(r)", lhs, r"I_C + m S^T(r) S(r)")
+    s.add("I_C + m (rᵀr I − r rᵀ)", rhs, r"I_C + m (r^T r I_3 - r r^T)")
+    s.add("difference", difference, r"\Delta")
+    for i, link in enumerate(sr.links):
+        k = i + 1
+        shape = f" ({link.shape})" if link.shape else ""
+        sub = str(k).translate(_SUB)
+        s.add(f"I_C{sub} — {link.name}{shape}, axes of Σ{sub}", link.inertia, rf"I_{{C_{{{k}}}}}")
+        s.add(f"I_O{sub} — about Σ{sub}'s origin (Steiner)", E.inertia_about_origin(sr, i),
+              rf"I_{{O_{{{k}}}}}")
+    for i, p in enumerate(E.com_positions(sr), start=1):
+        s.add(f"p_C{i}".translate(_SUB) + " (Σ₀)", p, rf"p_{{C_{{{i}}}}}")
+    for i, (J_P, J_O) in enumerate(E.partial_jacobians(sr), start=1):
+        s.add(f"J_P^ℓ{i}".translate(_SUB), J_P, rf"J_P^{{\ell_{{{i}}}}}")
+        s.add(f"J_O^ℓ{i}".translate(_SUB), J_O, rf"J_O^{{\ell_{{{i}}}}}")
+    links, rotors = E.kinetic_energies(sr)
+    for i, T in enumerate(links, start=1):
+        s.add(f"T_ℓ{i}".translate(_SUB), T, rf"\mathcal{{T}}_{{\ell_{{{i}}}}}")
+    for i, T in enumerate(rotors, start=1):
+        if T != 0:
+            s.add(f"T_m{i}".translate(_SUB), T, rf"\mathcal{{T}}_{{m_{{{i}}}}}")
+    s.add("T", E.kinetic_energy(sr), r"\mathcal{T}")
+    B = E.inertia_matrix(sr)
+    s.add("B(q)", B, r"B(q)")
+    for i, U in enumerate(E.potential_energies(sr), start=1):
+        s.add(f"U_ℓ{i}".translate(_SUB), U, rf"\mathcal{{U}}_{{\ell_{{{i}}}}}")
+    s.add("U", E.potential_energy(sr), r"\mathcal{U}")
+    s.notes.append(f"count_ops(B) = {count_ops(B)}")
+    return s
+
+
+def _a3(sr: SymbolicRobot) -> Section:
+    s = Section("A3", TITLES["A3"])
+    L = lagrange
+    s.add("ℒ = T − U", L.lagrangian(sr), r"\mathcal{L}")
+    s.add("τ = d/dt(∂ℒ/∂q̇)ᵀ − (∂ℒ/∂q)ᵀ + F_v q̇ + F_s sgn q̇", L.equations_of_motion(sr), r"\tau")
+    C, g = L.coriolis_matrix(sr), L.gravity_vector(sr)
+    s.add("C(q, q̇)", C, r"C(q, \dot q)")
+    s.add("g(q)", g, r"g(q)")
+    N, symmetric_part = L.skew_check(sr)
+    s.add("N = Ḃ − 2C", N, r"N = \dot B - 2C")
+    s.add("N + Nᵀ", symmetric_part, r"N + N^T")
+    s.notes.append(f"count_ops: B {count_ops(energy.inertia_matrix(sr))}, C {count_ops(C)}, "
+                   f"g {count_ops(g)}")
+    return s
+
+
+def _a4(sr: SymbolicRobot) -> Section:
+    s = Section("A4", TITLES["A4"])
+    N = newton_euler
+    for i, A in enumerate(kinematics.relative_transforms(sr), start=1):
+        label, tex = _T(i, i - 1)
+        s.add(label, A, tex)
+    full = N.full_equations(sr)
+    for i in range(sr.n):
+        k = i + 1
+        s.add(f"ω{k}^{k}".translate(_SUB), full.omega[i], rf"\omega_{{{k}}}^{{{k}}}")
+        s.add(f"ω̇{k}^{k}".translate(_SUB), full.omega_dot[i], rf"\dot\omega_{{{k}}}^{{{k}}}")
+        s.add(f"p̈_C{k}^{k} − g₀".translate(_SUB), full.acc_com[i], rf"\ddot p_{{C_{{{k}}}}}^{{{k}}} - g_0")
+        s.add(f"f{k}^{k}".translate(_SUB), full.force[i], rf"f_{{{k}}}^{{{k}}}")
+    s.add("τ = NE(q, q̇, q̈; g₀)", full.tau, r"\tau = NE(q, \dot q, \ddot q; g_0)")
+    B_ne, Cqd_ne, g_ne = N.inertia_matrix_ne(sr), N.coriolis_vector_ne(sr), N.gravity_vector_ne(sr)
+    s.add("B = [NE(q, 0, e_i; 0)]", B_ne, r"B = [NE(q, 0, e_i; 0)]_i")
+    s.add("C q̇ = NE(q, q̇, 0; 0)", Cqd_ne, r"C\dot q = NE(q, \dot q, 0; 0)")
+    s.add("g = NE(q, 0, 0; g₀)", g_ne, r"g = NE(q, 0, 0; g_0)")
+    ang = kinematics.angles(sr)
+    s.add("B_NE − B_Lagrange", compact_matrix(B_ne - energy.inertia_matrix(sr), ang),
+          r"B_{NE} - B_{\mathcal{L}}")
+    s.add("(C q̇)_NE − C_Christoffel q̇",
+          compact_matrix(Cqd_ne - lagrange.coriolis_matrix(sr) * sr.qd, ang),
+          r"(C\dot q)_{NE} - C_{\mathcal{L}}\dot q")
+    s.add("g_NE − g_Lagrange", compact_matrix(g_ne - lagrange.gravity_vector(sr), ang),
+          r"g_{NE} - g_{\mathcal{L}}")
+    s.add("τ_NE − τ_Lagrange", compact_matrix(full.tau - lagrange.equations_of_motion(sr), ang),
+          r"\tau_{NE} - \tau_{\mathcal{L}}")
+    s.notes.append("Quantities of link i in its frame Σ_i; the base accelerates by −g₀, so p̈_C − g₀ "
+                   "is shown.")
+    return s
+
+
+def _a5(sr: SymbolicRobot, frame: str) -> Section:
+    s = Section("A5", TITLES["A5"])
+    T_A, _ = operational.euler_rate_matrix()
+    s.add("T_A(φ) (ZYZ)", T_A, r"T_A(\phi)")
+    model = operational.operational_model(sr, frame)
+    if model is None:
+        s.notes.append("The task rows do not give a square, generically invertible J_A.")
+        return s
+    labels = [operational.TASK_LABELS[k] for k in model.rows]
+    s.notes.append(f"Task coordinates x = ({', '.join(labels)}) in Σ_{frame}: the rows of J_A that "
+                   "a robot with this many joints can control.")
+    s.add("J_A (task rows)", model.J_A, r"J_A")
+    s.add("T_A (task rows)", model.T_A, r"T_A")
+    s.add("B_A = J_A⁻ᵀ B J_A⁻¹", model.B_A, r"B_A")
+    s.add("C_A ẋ = J_A⁻ᵀ C q̇ − B_A J̇_A q̇", model.C_A_xd, r"C_A \dot x")
+    s.add("g_A = J_A⁻ᵀ g", model.g_A, r"g_A")
+    return s
+
+
+def derive(robot: Robot | SymbolicRobot, *, frame: str = "0", numeric: bool = False,
+           only: str | None = None) -> list[Section]:
+    """The A1–A5 derivations of ``robot`` (or just ``only``) as :class:`Section` objects.
+
+    ``frame`` ("0" or "base") is the frame of the kinematic results of A1 and of the task
+    coordinates of A5; dynamics are always written with g_0 and velocities in Σ_0.
+    ``numeric`` substitutes the parameter values.  Results are cached per symbolic robot, so
+    deriving A3 after A2 reuses B.
+    """
+    if frame not in kinematics.FRAMES:
+        raise ValueError(f"frame must be 'base' or '0', got {frame!r}")
+    if only is not None and only not in ASSIGNMENTS:
+        raise ValueError(f"unknown assignment {only!r} (use {', '.join(ASSIGNMENTS)})")
+    sr = robot if isinstance(robot, SymbolicRobot) else symbolic_robot(robot, numeric=numeric)
+    builders = {"A1": lambda: _a1(sr, frame), "A2": lambda: _a2(sr), "A3": lambda: _a3(sr),
+                "A4": lambda: _a4(sr), "A5": lambda: _a5(sr, frame)}
+    keys = [only] if only else list(ASSIGNMENTS)
+    return [builders[k]() for k in keys]
