@@ -197,6 +197,10 @@ def test_representation_singularities_of_the_prp_raise():
     with pytest.raises(RepresentationSingularityError):
         jacobian_dot_qd(PRP, [0.1, 0.0, 0.0], [0.1, 0.2, 0.3], frame="base", euler="zyz")
     assert np.all(np.isfinite(analytic_jacobian(PRP, [0.1, 0.0, 0.0], "rpy", "base")))
+    # RPY in Σ_base: R_e = [[1, 0, 0], [0, −c2, s2], [0, −s2, −c2]] gives (0, 0, θ2 + π)
+    for t2 in RNG.uniform(-3, 3, 5):
+        angles = pose_vector(PRP, [0.0, t2, 0.0], "rpy", "base")[3:]
+        assert np.allclose(np.angle(np.exp(1j * (angles - [0, 0, t2 + np.pi]))), 0, atol=1e-12)
 
 
 def fd_jdot_qd(jacobian, q, qd, h=1e-6):
