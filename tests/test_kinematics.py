@@ -270,3 +270,32 @@ def test_bundled_robots_jacobians_equal_finite_differences(name):
     robot = load_robot(name)
     q = np.linspace(0.2, -0.4, robot.n)
     assert np.allclose(geometric_jacobian(robot, q), fd_geometric_jacobian(robot, q, "base"), atol=1e-8)
+
+
+def test_compiled_kernels_allocate_nothing_per_call():
+    from numba import njit
+    from numba.core.runtime import _nrt_python, rtsys
+
+    @njit
+    def loop(m, q, qd, ref, ws, out, J, reps):
+        for _ in range(reps):
+            analytic_jacobian_dot_qd_kernel(m, q, qd, ZYZ, 0, ref, True, ws, out)
+            jacobian_dot_qd_kernel(m, q, qd, False, ws, out)
+            analytic_jacobian_kernel(m, q, RPY, 1, ref, False, ws, J)
+            pose_vector_into(m, q, ZYZ, -1, ref, True, ws, out)
+
+    robot = RANDOM_ROBOTS[0]
+    args = (robot.arrays, np.linspace(0.1, 0.6, 6), np.ones(6), np.zeros(3), kinematics_workspace(6),
+            np.empty(6), np.empty((6, 6)))
+    loop(*args, 1)
+    _nrt_python.memsys_enable_stats()
+    try:
+        counts = []
+        for reps in (1, 200):
+            before = rtsys.get_allocation_stats().alloc
+            loop(*args, reps)
+            counts.append(rtsys.get_allocation_stats().alloc - before)
+    finally:
+        _nrt_python.memsys_disable_stats()
+    # only the boxing of the arguments allocates, once per call from Python
+    assert counts[0] == counts[1]
