@@ -194,3 +194,13 @@ def test_bad_requests_name_the_field():
         inverse_kinematics(load_robot("planar2r"), [1.0, 0.0, 0.0], method="closed_form")
     with pytest.raises(ValueError, match="q0"):
         inverse_kinematics(PRP, [0, -0.2, 0.5], q0=[0.0])
+
+
+def test_revolute_turns_are_reported_inside_the_limits():
+    planar = load_robot("planar2r")
+    shifted = planar.replace(joints=(replace(planar.joints[0], limits=(14.0, 16.0)), planar.joints[1]))
+    target = forward_kinematics(planar, [15.0, 0.3])[:3, 3]
+    for q0 in (None, [0.0, 0.0]):
+        (q,) = inverse_kinematics(shifted, target, q0=q0)
+        assert 14.0 <= q[0] <= 16.0
+        assert np.allclose(forward_kinematics(planar, q)[:3, 3], target, atol=1e-8)

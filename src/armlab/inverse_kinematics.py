@@ -125,13 +125,22 @@ def _wrap_revolute(robot: Robot, q: np.ndarray, reference: np.ndarray) -> np.nda
     """Each revolute angle shifted by 2πk: inside its limits if possible, nearest the reference."""
     q = q.copy()
     q_min, q_max = _limits(robot)
+    two_pi = 2 * np.pi
     for i, kind in enumerate(robot.arrays.joint_type):
         if kind != REVOLUTE:
             continue
-        base = q[i] + 2 * np.pi * np.round((reference[i] - q[i]) / (2 * np.pi))
-        candidates = base + 2 * np.pi * np.arange(-2, 3)
-        inside = candidates[(candidates >= q_min[i]) & (candidates <= q_max[i])]
-        q[i] = inside[np.argmin(np.abs(inside - reference[i]))] if inside.size else base
+        nearest = q[i] + two_pi * np.round((reference[i] - q[i]) / two_pi)
+        if q_min[i] <= nearest <= q_max[i]:
+            q[i] = nearest
+            continue
+        # the turns that fit inside the (finite) limits, if any
+        k_lo = np.ceil((q_min[i] - q[i]) / two_pi) if np.isfinite(q_min[i]) else -np.inf
+        k_hi = np.floor((q_max[i] - q[i]) / two_pi) if np.isfinite(q_max[i]) else np.inf
+        if k_lo > k_hi:
+            q[i] = nearest
+            continue
+        k_ref = np.round((reference[i] - q[i]) / two_pi)
+        q[i] += two_pi * min(max(k_ref, k_lo), k_hi)
     return q
 
 
