@@ -299,3 +299,28 @@ def test_compiled_kernels_allocate_nothing_per_call():
         _nrt_python.memsys_disable_stats()
     # only the boxing of the arguments allocates, once per call from Python
     assert counts[0] == counts[1]
+
+
+@pytest.mark.parametrize("robot", [PRP, load_robot("puma560"), RANDOM_ROBOTS[1]], ids=lambda r: r.name)
+def test_jacobian_and_jdot_qd_agree_with_pinocchio(robot):
+    """Pinocchio (an independent implementation) on armlab's URDF export, in Σ_base."""
+    import pinocchio as pin
+
+    from pinocchio_model import pinocchio_model, pinocchio_q, pinocchio_v, v_index
+
+    model, data = pinocchio_model(robot)
+    frame_id = model.getFrameId("sigma_e", pin.BODY)
+    columns = v_index(robot, model)
+    rng = np.random.default_rng(12)
+    for _ in range(3):
+        q, qd = rng.uniform(-1, 1, robot.n) * 0.3, rng.uniform(-2, 2, robot.n)
+        q_pin, v_pin = pinocchio_q(robot, model, q), pinocchio_v(robot, model, qd)
+        pin.computeJointJacobians(model, data, q_pin)
+        pin.updateFramePlacements(model, data)
+        J_pin = pin.getFrameJacobian(model, data, frame_id, pin.LOCAL_WORLD_ALIGNED)[:, columns]
+        assert np.allclose(geometric_jacobian(robot, q, "base"), J_pin, atol=1e-10)
+        pin.forwardKinematics(model, data, q_pin, v_pin, np.zeros(model.nv))
+        pin.updateFramePlacements(model, data)
+        acc = pin.getFrameClassicalAcceleration(model, data, frame_id, pin.LOCAL_WORLD_ALIGNED)
+        assert np.allclose(jacobian_dot_qd(robot, q, qd, "base"), np.concatenate([acc.linear, acc.angular]),
+                           atol=1e-10)
