@@ -18,6 +18,8 @@ COMMANDS = (
     "robots",
     "derive",
     "demo",
+    "scenarios",
+    "run",
 )
 """Modules of ``armlab.commands``, in the order ``armlab --help`` lists them."""
 
