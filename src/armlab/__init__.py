@@ -20,12 +20,13 @@ from armlab.model import Robot, RobotFileError
 from armlab.model.urdf_io import load_urdf as load_urdf
 from armlab.model.urdf_io import save_urdf as save_urdf
 from armlab.model.urdf_io import to_urdf as to_urdf
-from armlab.robots import bundled_robot_names, load_robot
-from armlab.spatial import RepresentationSingularityError as RepresentationSingularityError
+from armlab.operational_space import operational_space_dynamics as operational_space_dynamics
 from armlab.results import SimulationResult as SimulationResult
+from armlab.robots import bundled_robot_names, load_robot
 from armlab.simulation import SimulationDiverged as SimulationDiverged
 from armlab.simulation import simulate as simulate
 from armlab.simulation import simulate_batch as simulate_batch
+from armlab.spatial import RepresentationSingularityError as RepresentationSingularityError
 
 __version__ = "0.1.0"
 
