@@ -116,3 +116,89 @@ def test_animation_rejects_bad_input(tmp_path):
         animate_robot(robot, t, np.zeros((11, 2)), tmp_path / "a.gif")
     with pytest.raises(AnimationError, match="format"):
         animate_robot(robot, t, np.zeros((11, 3)), tmp_path / "a.avi")
+
+
+def _synthetic_result(limit=2.0):
+    """A hand-made SimulationResult: first-order error decay e(t) = e0 exp(−t/T), a torque
+    that saturates at ±limit, a contact force reaching f_d."""
+    from armlab.results import SimulationResult
+
+    t = np.linspace(0.0, 5.0, 5001)
+    T = 0.4
+    e0 = np.array([0.1, 0.5])
+    q_des = np.tile([0.1, 0.5], (t.size, 1))
+    q_err = e0 * np.exp(-t / T)[:, None]
+    q = q_des - q_err
+    tau = np.clip(np.column_stack((5.0 * np.exp(-t), -3.0 * np.exp(-2 * t))), -limit, limit)
+    h_e = np.zeros((t.size, 6))
+    h_e[:, 1] = -0.5 * (1.0 - np.exp(-t))
+    f_d = np.tile([0.0, -0.5, 0.0], (t.size, 1))
+    joints, units = ("d1", "theta2"), ("m", "rad")
+    return SimulationResult(
+        t=t, q=q, qd=np.zeros_like(q), qdd=np.zeros_like(q), tau=tau, z=np.zeros((t.size, 0)),
+        signals={"q_des": q_des, "q_err": q_err, "h_e": h_e, "f_d": f_d},
+        labels={"q": joints, "qd": joints, "qdd": joints, "tau": joints, "z": (), "q_des": joints,
+                "q_err": joints, "h_e": ("fx", "fy", "fz", "mx", "my", "mz"), "f_d": ("fx", "fy", "fz")},
+        units={"q": units, "qd": ("m/s", "rad/s"), "qdd": ("m/s²", "rad/s²"), "tau": ("N", "N·m"), "z": (),
+               "q_des": units, "q_err": units, "h_e": ("N",) * 3 + ("N·m",) * 3, "f_d": ("N",) * 3},
+        meta={"scenario": "synthetic", "torque_limit": [limit, limit]})
+
+
+def test_scopes_are_chosen_from_the_signals(tmp_path):
+    from PIL import Image
+
+    from armlab.viz import plot_scopes
+    from armlab.viz.scopes import scope_layout
+
+    result = _synthetic_result()
+    names = [scope.name for scope in scope_layout(result)]
+    assert names == ["positions", "q_err", "torques", "forces"]
+    paths = plot_scopes(result, tmp_path)
+    assert [p.name for p in paths] == [f"{n}.{f}" for n in names for f in ("png", "svg")]
+    for path in paths:
+        if path.suffix == ".png":
+            with Image.open(path) as image:
+                assert image.size[0] > 500
+        else:
+            assert "t [s]" in path.read_text()
+
+
+def test_torque_scope_draws_the_saturation_limits_and_force_reference():
+    from armlab.viz.scopes import render_scope, scope_layout
+
+    scopes = {s.name: s for s in scope_layout(_synthetic_result(limit=2.0))}
+    fig = render_scope(scopes["torques"])
+    limit_lines = [ln for ln in fig.axes[0].lines if ln.get_linestyle() == "-."]
+    assert sorted(ln.get_ydata()[0] for ln in limit_lines) == [-2.0, 2.0]
+    assert fig.axes[0].get_ylabel() == "τ d1 [N]" and fig.axes[1].get_ylabel() == "τ θ2 [N·m]"
+    forces = scopes["forces"]
+    assert [p.ylabel for p in forces.panels] == ["fx [N]", "fy [N]", "fz [N]"]  # zero moments left out
+    assert [c[0] for c in forces.panels[1].curves] == ["h_e", "f_d"]
+
+
+def test_decimation_keeps_the_extremes():
+    from armlab.viz.scopes import decimate
+
+    t = np.linspace(0.0, 1.0, 100_001)
+    y = np.sin(40 * t)
+    y[54_321] = 7.0  # one spike must survive
+    td, yd = decimate(t, y, max_points=1000)
+    assert td.size <= 1000 and np.all(np.diff(td) > 0)
+    assert yd.max() == 7.0 and np.isclose(yd.min(), y.min())
+
+
+def test_metrics_against_the_closed_form_first_order_decay():
+    """e(t) = e0 exp(−t/T) leaves the 2 % band for good at T ln 50; f_e reaches f_d."""
+    from armlab.viz.metrics import measure, settling_time
+
+    result = _synthetic_result()
+    T = 0.4
+    expected = T * np.log(50.0)
+    assert abs(settling_time(result.t, result.signals["q_err"][:, 0]) - expected) <= 1e-3
+    rows = {(m.quantity, m.component): m.value for m in measure(result)}
+    assert abs(rows[("settling time (2 %) of q_err", "θ2")] - expected) <= 1e-3
+    assert abs(rows[("steady-state q_err", "d1")]) < 0.1 * np.exp(-4.75 / T)
+    assert rows[("peak |τ|", "d1")] == 2.0
+    assert 0.0 < rows[("time at the torque limit", "d1")] < 100.0
+    assert abs(rows[("final force error f_d − h_e", "fy")]) < 0.5 * np.exp(-4.7)
+    assert settling_time(result.t, np.cos(result.t)) is None  # never settles

@@ -2,8 +2,15 @@
 
 This package sits at the edge: it imports the library, the library never imports it.
 Everything renders off-screen (matplotlib's Agg backend).
+
+* :func:`plot_scopes` — the scope figures of a SimulationResult as PNG/SVG files;
+* :func:`draw_robot` — the robot with its links and frames Σ_base, Σ_0 … Σ_e;
+* :func:`animate_robot` — a GIF (or MP4 with ffmpeg) of a joint trajectory;
+* :func:`armlab.viz.report.build_report` — the whole seed project as one HTML file.
 """
 
+from armlab.viz.animation import animate_robot
 from armlab.viz.drawing import Plane, RobotArtist, draw_robot, frame_poses
+from armlab.viz.scopes import plot_scopes
 
-__all__ = ["Plane", "RobotArtist", "draw_robot", "frame_poses"]
+__all__ = ["Plane", "RobotArtist", "animate_robot", "draw_robot", "frame_poses", "plot_scopes"]

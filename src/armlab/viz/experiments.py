@@ -1,17 +1,136 @@
-"""The report's experiments, discovered from the scenario registry."""
+"""The report's experiments, discovered from the scenario registry (``armlab.scenarios``).
+
+A scenario belongs to the report of robot R when its plant is R, a variant of R's file
+(``prp_actuated`` for ``prp``), or one of R's companion robots: the seed's A8 studies a
+1-DoF link, so ``link1`` scenarios belong to the PRP report.  New scenario files appear in the
+next report by themselves.
+"""
 
 from __future__ import annotations
 
+import tomllib
 
-def discover(robot, *, quick: bool = False) -> list:
-    """Every registered scenario of ``robot`` as a report Experiment."""
+import numpy as np
+
+from armlab.model.robot import Robot
+from armlab.viz.drawing import Plane
+from armlab.viz.report import Experiment, assignment_number
+
+COMPANIONS = {"prp": ("link1",)}
+QUICK_T_FINAL = 2.0  # [s] length of every run in --quick mode
+HIDDEN_KEYS = {"title", "assignment", "description"}
+
+
+def _belongs(plant_name: str, robot_name: str) -> bool:
+    return (plant_name == robot_name or plant_name.startswith(robot_name + "_")
+            or plant_name in COMPANIONS.get(robot_name, ()))
+
+
+def _flatten(table: dict, prefix: str = "") -> list[tuple[str, str]]:
+    rows = []
+    for key, value in table.items():
+        name = f"{prefix}{key}"
+        if isinstance(value, dict):
+            rows += _flatten(value, name + ".")
+        elif isinstance(value, list) and value and all(isinstance(v, dict) for v in value):
+            for i, item in enumerate(value):
+                rows += _flatten(item, f"{name}[{i}].")
+        else:
+            rows.append((name, str(value).replace("'", "")))
+    return rows
+
+
+def scenario_parameters(source: str) -> list[tuple[str, str]]:
+    """The set-up of a scenario file as (key, value) rows, as written in the file."""
+    with open(source, "rb") as handle:
+        data = tomllib.load(handle)
+    return _flatten({k: v for k, v in data.items() if k not in HIDDEN_KEYS})
+
+
+def environment_plane(environment) -> Plane | None:
+    """The surface to draw for an environment: a wall's plane, or the plane through a spring's
+    rest position normal to its stiffest translational direction; None in free space."""
+    if environment is None:
+        return None
+    if hasattr(environment, "normal") and hasattr(environment, "point"):
+        return Plane(tuple(environment.point), tuple(environment.normal))
+    stiffness = getattr(environment, "stiffness", None)
+    rest = getattr(environment, "rest_position", None)
+    if stiffness is None or rest is None:
+        return None
+    K = np.asarray(stiffness, dtype=float)
+    if K.shape != (6, 6) or np.abs(K[:3, :3]).max() == 0.0:
+        return None
+    values, vectors = np.linalg.eigh(K[:3, :3])
+    R_r = np.asarray(getattr(environment, "rest_rotation", np.eye(3)), dtype=float)
+    return Plane(tuple(rest), tuple(R_r @ vectors[:, int(np.argmax(values))]))
+
+
+def true_parameters(scenario) -> np.ndarray | None:
+    """The plant's true parameter vector π for an adaptive controller's estimates π̂ (the
+    estimate of the plant the scenario simulates, which the controller never sees); None for
+    other controllers."""
     try:
-        import armlab.scenarios  # noqa: F401
+        from armlab.control import adaptive
     except ImportError:
-        return []
-    return []
+        return None
+    if isinstance(scenario.controller, adaptive.SlotineLi1DoF):
+        return adaptive.link1_parameters(scenario.plant)
+    if isinstance(scenario.controller, adaptive.SlotineLi):
+        return adaptive.standard_parameters(scenario.plant)
+    return None
+
+
+def _registry():
+    try:
+        import armlab.scenarios as registry
+    except ImportError:
+        return None
+    return registry
 
 
 def registry_names(robot_name: str) -> list[str]:
-    """Names of the registered scenarios of the robot named ``robot_name``."""
-    return []
+    """Names of the registered scenarios that belong to the report of ``robot_name``."""
+    registry = _registry()
+    if registry is None:
+        return []
+    return [s.name for s in registry.list_scenarios() if _belongs(s.plant.name, robot_name)]
+
+
+def experiment_from_scenario(scenario, t_final: float | None = None) -> Experiment:
+    """The :class:`Experiment` of a registered scenario (a name or a loaded Scenario), run up to
+    ``t_final`` [s] when given (shorter than the file's own t_final), else for its full length."""
+    registry = _registry()
+    if isinstance(scenario, str):
+        scenario = registry.load_scenario(scenario)
+    full = float(scenario.simulation["t_final"])
+    short = t_final if t_final is not None and t_final < full else None
+
+    truth = true_parameters(scenario)
+
+    def runner():
+        result = scenario.run(t_final=short, on_divergence="return")
+        if truth is not None:
+            result.meta["true_parameters"] = truth.tolist()
+        return result
+
+    parameters = scenario_parameters(scenario.source) if scenario.source else []
+    if short is not None:
+        parameters.append(("report (quick)", f"run shortened to t_final = {short:g} s"))
+    number = assignment_number(scenario.assignment) or assignment_number(scenario.name) or 0
+    return Experiment(name=scenario.name, assignment=number, title=scenario.title,
+                      description=scenario.description, parameters=parameters, robot=scenario.plant,
+                      plane=environment_plane(getattr(scenario, "environment", None)), runner=runner,
+                      scenario=scenario.name, t_final=short, kind=type(scenario.controller).__name__)
+
+
+def discover(robot: Robot, *, quick: bool = False) -> list[Experiment]:
+    """Every registered scenario of ``robot`` as an :class:`Experiment` ready to run, by
+    assignment; ``quick`` shortens each run to :data:`QUICK_T_FINAL`."""
+    registry = _registry()
+    if registry is None:
+        return []
+    experiments = [experiment_from_scenario(scenario, QUICK_T_FINAL if quick else None)
+                   for scenario in registry.list_scenarios() if _belongs(scenario.plant.name, robot.name)]
+    experiments.sort(key=lambda e: (e.assignment, e.name))
+    return experiments

@@ -40,11 +40,22 @@ th, td { border: 1px solid var(--rule); padding: 3px 9px; text-align: left; vert
 th { background: #f0f3f7; font-weight: 600; }
 td.num { text-align: right; font-variant-numeric: tabular-nums; font-family: "DejaVu Sans Mono", monospace; }
 .tables { display: flex; flex-wrap: wrap; gap: 24px; align-items: flex-start; }
-.formula { margin: 10px 0 14px; overflow-x: auto; }
+.formula { margin: 8px 0; overflow-x: auto; overflow-y: hidden; padding: 2px 0; display: flex;
+           align-items: center; gap: 18px; }
+.formula .label { flex: 0 0 250px; }
+.formula math { margin: 0; }
+math { font-family: "DejaVu Math TeX Gyre", "STIX Two Math", "Latin Modern Math", math; }
+math mtable.matrix { padding: 1px 6px; border-left: 1.4px solid currentColor;
+  border-right: 1.4px solid currentColor;
+  background: linear-gradient(currentColor, currentColor) top left / 6px 1.4px no-repeat,
+              linear-gradient(currentColor, currentColor) bottom left / 6px 1.4px no-repeat,
+              linear-gradient(currentColor, currentColor) top right / 6px 1.4px no-repeat,
+              linear-gradient(currentColor, currentColor) bottom right / 6px 1.4px no-repeat; }
 .formula .label { color: var(--muted); font-size: 13px; margin-bottom: 2px; }
-math[display="block"] { font-size: 17px; }
+math[display="block"] { font-size: 17px; text-align: left; }
 .diverged { color: var(--bad); font-weight: 600; }
 .missing { color: var(--muted); font-style: italic; }
+.note { color: var(--muted); font-size: 13.5px; }
 code { font-family: "DejaVu Sans Mono", monospace; font-size: 13px; background: #eef1f5;
        padding: 1px 4px; border-radius: 3px; }
 """
@@ -88,13 +99,19 @@ def table(headers: list[str], rows: list[list], *, numeric: set[int] = frozenset
     return f"<table>{cap}<thead><tr>{head}</tr></thead><tbody>{''.join(body)}</tbody></table>"
 
 
-def math_block(label: str, expr, label_expr=None) -> str:
-    """``label`` (text) over the presentation MathML of ``label_expr = expr`` (SymPy objects)."""
-    from sympy.printing.mathml import mathml
+def bracket_matrices(mathml: str) -> str:
+    """Matrices drawn with CSS brackets instead of ``<mo>[</mo>`` … ``<mo>]</mo>``.
 
-    body = mathml(expr, printer="presentation")
-    if label_expr is not None:
-        body = f"<mrow>{mathml(label_expr, printer='presentation')}<mo>=</mo>{body}</mrow>"
+    A bracket operator only stretches to the height of its matrix when the browser has an
+    OpenType MATH font; a bordered table looks right with any font.
+    """
+    return (mathml.replace("<mo>[</mo><mtable>", '<mtable class="matrix">')
+            .replace("</mtable><mo>]</mo>", "</mtable>"))
+
+
+def math_block(label: str, body: str) -> str:
+    """``label`` (text) over a formula given as presentation MathML ``body`` (no <math> tag)."""
+    body = bracket_matrices(body)
     return (f'<div class="formula"><div class="label">{escape(label)}</div>'
             f'<math display="block">{body}</math></div>')
 

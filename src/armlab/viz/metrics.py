@@ -121,6 +121,19 @@ def measure(result) -> list[Metric]:
                 rows.append(Metric("true value", pretty(label), float(truth[-1, k]), unit))
             elif true_values is not None and k < len(true_values):
                 rows.append(Metric("true value", pretty(label), float(true_values[k]), unit))
+    z_labels = tuple(result.labels.get("z", ()))
+    true_values = result.meta.get("true_parameters")
+    if z_labels and all(label.endswith("_hat") for label in z_labels):
+        for k, label in enumerate(z_labels):
+            unit = result.units["z"][k]
+            rows.append(Metric("final estimate", pretty(label), float(result.z[-1, k]), unit))
+            if true_values is not None and len(true_values) == len(z_labels):
+                rows.append(Metric("true value", pretty(label), float(true_values[k]), unit))
+        regressor = result.signals.get("Y")
+        if true_values is not None and regressor is not None and regressor.shape[1] == len(z_labels):
+            mismatch = np.sum(regressor * (result.z - np.asarray(true_values, dtype=float)), axis=1)
+            rows.append(Metric("RMS Y(π̂ − π) (2nd half)", "", float(np.sqrt(np.mean(mismatch[half] ** 2))),
+                               result.units["tau"][0]))
     if result.status != "ok":
         rows.append(Metric("status", "", result.diagnosis or result.status))
     return rows

@@ -16,6 +16,7 @@ filled with made-up content.  Images are inlined, so the file can be mailed or o
 
 from __future__ import annotations
 
+import os
 import re
 import time
 import traceback
@@ -77,7 +78,11 @@ class Experiment:
     error: str = ""
     seconds: float = 0.0
     metrics: list[Metric] = field(default_factory=list)
+    figures: list[tuple[str, str, bytes]] = field(default_factory=list)
     runner: object = None
+    scenario: str | None = None
+    t_final: float | None = None
+    kind: str = ""
 
     def run(self):
         """Run the scenario: ``runner()`` returns its SimulationResult."""
@@ -131,41 +136,34 @@ def _drawings(robot: Robot) -> str:
 
 
 def _symbolic_sections(robot: Robot, progress: Progress) -> dict[int, str]:
-    """HTML of the A1–A5 derivations by assignment number ({} when derivations are missing)."""
-    try:
-        import armlab.symbolic as symbolic
-    except ImportError:
-        return {}
-    derive = getattr(symbolic, "derive", None)
-    if derive is None:
-        return {}
-    progress.step("symbolic derivations A1–A5")
-    sections = derive(robot)
-    progress.advance()
-    from sympy import Symbol
+    """HTML of the A1–A5 derivations by assignment number.
 
-    out: dict[int, list[str]] = {}
-    for order, section in enumerate(sections, start=1):
-        title = str(getattr(section, "title", section[0] if isinstance(section, tuple) else ""))
-        items = getattr(section, "items", section[1] if isinstance(section, tuple) else [])
-        number = getattr(section, "assignment", None) or assignment_number(title) or min(order, 5)
-        blocks = [f"<h3>{html.escape(title)}</h3>"]
-        for label, expr in items:
-            blocks.append(html.math_block(str(label), expr, label_expr=None if _is_sentence(label)
-                                          else Symbol(str(label))))
-        out.setdefault(int(number), []).append("".join(blocks))
-    return {k: "".join(v) for k, v in out.items()}
+    A1 is derived in both Σ_0 and Σ_base (as the seed does), A2–A5 in Σ_0; one symbolic robot
+    serves all five, so later sections reuse B, C, g.
+    """
+    from armlab.symbolic import symbolic_robot
+    from armlab.symbolic.render import to_mathml
+    from armlab.symbolic.sections import ASSIGNMENTS as DERIVED
+    from armlab.symbolic.sections import derive
 
-
-def _is_sentence(label) -> bool:
-    """Labels with spaces are descriptions, not symbols to put on the left of an equation."""
-    return " " in str(label) or len(str(label)) > 24
+    sr = symbolic_robot(robot)
+    out: dict[int, str] = {}
+    for key in DERIVED:
+        progress.step(f"deriving {key}")
+        (section,) = derive(sr, frame="base" if key == "A1" else "0", only=key)
+        blocks = [f"<h3>Derivation: {html.escape(section.title)}</h3>"]
+        for item in section.items:
+            blocks.append(html.math_block(item.label, to_mathml(item.expr)))
+        blocks += [f'<p class="note">{html.escape(note)}</p>' for note in section.notes]
+        out[int(key[1:])] = "".join(blocks)
+        progress.advance()
+    return out
 
 
 # ----------------------------------------------------------------------------- A6–A15
 
 
-def _experiment_html(exp: Experiment, figures: list[tuple[str, bytes]]) -> str:
+def _experiment_html(exp: Experiment) -> str:
     name = html.escape(exp.name)
     parts = [f'<article class="experiment" id="exp-{name}" data-experiment="{name}">',
              f"<h3>{html.escape(exp.title)} <code>{html.escape(exp.name)}</code></h3>",
@@ -184,29 +182,105 @@ def _experiment_html(exp: Experiment, figures: list[tuple[str, bytes]]) -> str:
         parts.append(f'<p class="diverged">{html.escape(exp.error)}</p>')
     elif result is not None and getattr(result, "status", "ok") != "ok":
         parts.append(f'<p class="diverged">{html.escape(result.diagnosis)}</p>')
-    if figures:
+    if exp.figures:
         items = [html.figure(html.png_data_uri(data), caption, kind="scope", ident=f"fig-{exp.name}-{scope}")
-                 for scope, (caption, data) in figures]
+                 for scope, caption, data in exp.figures]
         parts.append('<div class="figures">' + "".join(items) + "</div>")
     parts.append("</article>")
     return "".join(parts)
 
 
-def _scope_figures(exp: Experiment) -> list[tuple[str, tuple[str, bytes]]]:
+def _scope_figures(exp: Experiment) -> list[tuple[str, str, bytes]]:
     result = exp.result
     figures = []
     diagnosis = result.diagnosis if result.status != "ok" else ""
     for scope in scope_layout(result):
         fig = render_scope(scope, title_prefix=exp.name, diagnosis=diagnosis)
         try:
-            figures.append((scope.name, (f"{exp.name}: {scope.title}", html.figure_png(fig, dpi=80))))
+            figures.append((scope.name, f"{exp.name}: {scope.title}", html.figure_png(fig, dpi=80)))
         finally:
             plt.close(fig)
     return figures
 
 
+def evaluate(exp: Experiment) -> Experiment:
+    """Run ``exp`` and measure it: result, metrics and scope figures (PNG), filled in place.
+
+    A scenario that fails is kept with its error message (and its partial result, if the
+    simulator kept one) instead of stopping the report.
+    """
+    started = time.perf_counter()
+    if exp.result is None and not exp.error:
+        try:
+            exp.result = exp.run()
+        except ArmlabError as error:
+            exp.error = f"{type(error).__name__}: {error}"
+            exp.result = getattr(error, "result", None)
+        except Exception as error:  # the report lists a broken scenario instead of dying
+            exp.error = f"{type(error).__name__}: {error}"
+            traceback.print_exc()
+    exp.seconds = time.perf_counter() - started
+    if exp.result is not None and len(exp.result.t) >= 2:
+        exp.metrics = measure(exp.result)
+        exp.figures = _scope_figures(exp)
+    exp.runner = None  # closures do not cross process boundaries
+    return exp
+
+
+def _evaluate_scenario(name: str, t_final: float | None) -> Experiment:
+    """Worker-process job: build the experiment of a registered scenario and evaluate it."""
+    from armlab.viz.experiments import experiment_from_scenario
+
+    return evaluate(experiment_from_scenario(name, t_final))
+
+
+def _schedule(planned: list[Experiment]) -> list[Experiment]:
+    """Registry scenarios ordered so that the first run of every controller type comes first:
+    two workers then compile different control loops at the same time."""
+    seen, first, rest = set(), [], []
+    for exp in planned:
+        (rest if exp.kind in seen else first).append(exp)
+        seen.add(exp.kind)
+    return first + rest
+
+
+def _run_all(planned: list[Experiment], progress: Progress, workers: int, main_job) -> dict:
+    """Evaluate every experiment (registry ones in ``workers`` processes) while ``main_job()``
+    runs here; returns main_job's value."""
+    pooled = [e for e in planned if e.scenario is not None and e.result is None] if workers > 1 else []
+    local = [e for e in planned if e not in pooled]
+    if not pooled:
+        value = main_job()
+        for exp in local:
+            progress.step(f"running {exp.name}")
+            evaluate(exp)
+            progress.advance()
+        return value
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor, as_completed
+
+    context = multiprocessing.get_context("spawn")  # no fork of a process that holds threads
+    by_name = {e.name: e for e in pooled}
+    with ProcessPoolExecutor(max_workers=workers, mp_context=context) as pool:
+        futures = {pool.submit(_evaluate_scenario, e.scenario, e.t_final): e.name for e in _schedule(pooled)}
+        value = main_job()
+        for exp in local:
+            progress.step(f"running {exp.name}")
+            evaluate(exp)
+            progress.advance()
+        for future in as_completed(futures):
+            done = future.result()
+            target = by_name[futures[future]]
+            for key in ("result", "error", "seconds", "metrics", "figures", "robot", "plane"):
+                setattr(target, key, getattr(done, key))
+            progress.step(f"ran {done.name} ({done.seconds:.1f} s)")
+            progress.advance()
+    return value
+
+
 def build_report(robot: str | Robot = "prp", out_dir: str | Path = "report", *, quick: bool = False,
-                 show_progress: bool = True, experiments=None, animation: bool = True) -> Path:
+                 show_progress: bool = True, experiments=None, animation: bool = True,
+                 jobs: int | None = None) -> Path:
     """Write ``<out_dir>/report.html`` for ``robot`` and return its path.
 
     Parameters
@@ -216,6 +290,7 @@ def build_report(robot: str | Robot = "prp", out_dir: str | Path = "report", *, 
     experiments : optional list of :class:`Experiment` to run instead of the registry's
         scenarios of the robot (used by tests)
     animation : add a GIF of one run
+    jobs : processes that run the registry's scenarios (default: up to 2, one per core)
     """
     started = time.perf_counter()
     if not isinstance(robot, Robot):
@@ -225,33 +300,19 @@ def build_report(robot: str | Robot = "prp", out_dir: str | Path = "report", *, 
     from armlab.viz.experiments import discover
 
     planned = list(experiments) if experiments is not None else discover(robot, quick=quick)
-    progress = Progress(len(planned) + 3, enabled=show_progress)
+    progress = Progress(len(planned) + 7, enabled=show_progress)
 
-    progress.step("robot drawings")
-    drawings = _drawings(robot)
-    progress.advance()
-    derivations = _symbolic_sections(robot, progress)
+    def here():
+        progress.step("robot drawings")
+        drawn = _drawings(robot)
+        progress.advance()
+        return drawn, _symbolic_sections(robot, progress)
 
+    workers = max(1, min(2, os.cpu_count() or 1)) if jobs is None else jobs
+    drawings, derivations = _run_all(planned, progress, workers, here)
     bodies: dict[int, list[str]] = {}
     for exp in planned:
-        progress.step(f"running {exp.name}")
-        exp_started = time.perf_counter()
-        if exp.result is None and not exp.error:
-            try:
-                exp.result = exp.run()
-            except ArmlabError as error:
-                exp.error = f"{type(error).__name__}: {error}"
-                exp.result = getattr(error, "result", None)
-            except Exception as error:  # the report lists a broken scenario instead of dying
-                exp.error = f"{type(error).__name__}: {error}"
-                traceback.print_exc()
-        exp.seconds = time.perf_counter() - exp_started
-        figures = []
-        if exp.result is not None and len(exp.result.t) >= 2:
-            exp.metrics = measure(exp.result)
-            figures = _scope_figures(exp)
-        bodies.setdefault(exp.assignment, []).append(_experiment_html(exp, figures))
-        progress.advance()
+        bodies.setdefault(exp.assignment, []).append(_experiment_html(exp))
 
     movie = ""
     if animation:

@@ -8,8 +8,9 @@ plots a control engineer expects without plotting code of its own:
 * ``<X>_err``    — every error signal, one panel per component, with its final value;
 * ``torques``    — applied τ, commanded τ (``tau_cmd``) and the saturation limits ±τ_max;
 * ``forces``     — the contact wrench h_e against the desired force (``f_d``/``f_des``/``h_d``);
-* ``estimates``  — parameter estimates (a group named ``*_hat``) against the true values
-  (``<name>_true`` signal or ``meta["true_parameters"]``);
+* ``estimates``  — parameter estimates (a group named ``*_hat``, or a controller state whose
+  components are all named ``*_hat``) against the true values (``<name>_true`` signal or
+  ``meta["true_parameters"]``), with Y(π̂ − π) when the regressor ``Y`` is logged;
 * ``singular_values`` — the Jacobian's singular values (``jacobian_sv``, ``singular_values``);
 * ``signals``    — every remaining logged signal and the controller state, one panel each.
 
@@ -47,7 +48,9 @@ class ScopeError(ArmlabError, ValueError):
 
 
 def pretty(label: str) -> str:
-    """"theta2" → "θ2", "phi_x" → "φ_x": Greek names as letters for axis labels."""
+    """"theta2" → "θ2", "phi_x" → "φ_x", "I_hat" → "Î": Greek names as letters, estimates
+    with a hat, for axis labels."""
+    label = re.sub(r"([A-Za-z])_hat\b", "\\1\u0302", label)
     return re.sub(r"[a-z]+", lambda m: GREEK.get(m.group(0), m.group(0)), label)
 
 
@@ -211,6 +214,32 @@ def scope_layout(result) -> list[Scope]:
             used.update({name, name[:-4] + "_true"})
             scopes.append(Scope("estimates", f"parameter estimates {pretty(name)} and true values", panels))
 
+    z_labels = tuple(labels.get("z", ()))
+    if z_labels and all(label.endswith("_hat") for label in z_labels):
+        true_values = result.meta.get("true_parameters")
+        known = true_values is not None and len(true_values) == len(z_labels)
+        panels = []
+        for k, label in enumerate(z_labels):
+            panel = Panel(_unit_label(label, units["z"][k]))
+            panel.curves.append(("estimate", t, result.z[:, k], dict(color=ACTUAL, lw=1.4)))
+            if known:
+                panel.hlines.append((float(true_values[k]), dict(color=DESIRED, lw=1.1, ls="--",
+                                                                 label="true value")))
+            panels.append(panel)
+        regressor = result.signals.get("Y")
+        if known and regressor is not None and regressor.shape[1] == len(z_labels):
+            # Y(π̂ − π): what the wrong estimates cost in torque; it vanishes although π̂ ≠ π.
+            mismatch = np.sum(regressor * (result.z - np.asarray(true_values, dtype=float)), axis=1)
+            panel = Panel(_unit_label("Y(π̂ − π)", units["tau"][0]))
+            panel.curves.append(("Y(π̂ − π)", t, mismatch, dict(color=COMMAND, lw=1.3)))
+            panel.hlines.append((0.0, dict(color="0.5", lw=0.8)))
+            panel.note = f"final {mismatch[-1]:.3g} {units['tau'][0]}"
+            panels.append(panel)
+            used.add("Y")
+        used.add("z")
+        scopes.append(Scope("estimates", "parameter estimates π̂ (controller state) and true values π",
+                            panels))
+
     for name in result.signals:
         if _is_singular_value_group(name) and name not in used:
             panel = Panel(_unit_label("σ_i(J)", units[name][0] if units[name] else ""))
@@ -220,7 +249,7 @@ def scope_layout(result) -> list[Scope]:
             scopes.append(Scope("singular_values", "singular values of the Jacobian", [panel]))
 
     rest = [g for g in result.signals if g not in used]
-    if result.z.shape[1] > 0:
+    if result.z.shape[1] > 0 and "z" not in used:
         rest.append("z")
         groups["z"] = result.z
     panels = []
@@ -262,7 +291,8 @@ def render_scope(scope: Scope, *, title_prefix: str = "", diagnosis: str = ""):
         # unless a panel has curves of its own (the "signals" scope).
         handles, labels = ax.get_legend_handles_labels()
         first = axes[0].get_legend_handles_labels()[1]
-        if handles and (index == 0 or labels != first) and (len(handles) > 1 or len(axes) == 1 or index > 0):
+        wanted = index == 0 or labels != first
+        if handles and len(handles) <= 8 and wanted and (len(handles) > 1 or len(axes) == 1 or index > 0):
             ax.legend(fontsize=7.5, loc="best", ncol=min(4, len(handles)), framealpha=0.85)
     axes[-1].set_xlabel("t [s]", fontsize=9)
     title = f"{title_prefix}: {scope.title}" if title_prefix else scope.title
