@@ -20,6 +20,7 @@ COMMANDS = (
     "demo",
     "scenarios",
     "run",
+    "report",
 )
 """Modules of ``armlab.commands``, in the order ``armlab --help`` lists them."""
 
