@@ -54,7 +54,9 @@ class Section:
     notes: list[str] = field(default_factory=list)
 
     def add(self, label: str, expr, tex: str) -> None:
-        self.items.append(Item(label, expr, tex))
+        if isinstance(expr, sp.MatrixBase):
+            expr = sp.ImmutableMatrix(expr)
+        self.items.append(Item(label, sp.sympify(expr), tex))
 
     @property
     def assignment(self) -> int:
