@@ -29,6 +29,10 @@ EULER_CODES = {"zyz": ZYZ, "rpy": RPY}
 # |sin ϑ| (ZYZ) or |cos ϑ| (RPY) below this: the angles are at a representation singularity.
 EULER_SINGULAR_EPS = 1e-12
 
+# The compiled helpers never allocate, so they run without reference counting (as the
+# dynamics kernels do); division by zero gives inf/nan instead of raising.
+compiled = njit(cache=True, error_model="numpy", _nrt=False)
+
 
 class RepresentationSingularityError(ArmlabError, ValueError):
     """The Euler-angle rate matrix T(φ) is singular (det T ≈ 0) at the requested orientation."""
@@ -120,14 +124,14 @@ def rotation_to_axis(axis) -> np.ndarray:
 # ---------------------------------------------------------------- compiled Euler-angle helpers
 
 
-@njit(cache=True, error_model="numpy")
+@compiled
 def _wrap_near(angle, reference):
     """angle + 2πk closest to ``reference``."""
     two_pi = 2.0 * np.pi
     return angle + two_pi * np.round((reference - angle) / two_pi)
 
 
-@njit(cache=True, error_model="numpy")
+@compiled
 def _euler_branch(R, convention, branch, out):
     """Angles of one branch into ``out``; returns the observable combination type at a
     singularity (+1: φ + ψ, −1: φ − ψ) or 0 when regular.  ψ = 0 at a singularity."""
@@ -158,7 +162,7 @@ def _euler_branch(R, convention, branch, out):
     return 0
 
 
-@njit(cache=True, error_model="numpy")
+@compiled
 def euler_angles_into(R, convention, branch, reference, out):
     """Euler angles (φ, ϑ, ψ) [rad] of the rotation R (3, 3) into ``out`` (3,).
 
@@ -191,7 +195,7 @@ def euler_angles_into(R, convention, branch, reference, out):
     out[0], out[1], out[2] = f0, f1, f2
 
 
-@njit(cache=True, error_model="numpy")
+@compiled
 def euler_rate_matrix_into(angles, convention, out):
     """T(φ) (3, 3) into ``out`` with ω = T(φ) φ̇ (K9); returns det T (−sin ϑ | −cos ϑ).
 
@@ -207,7 +211,7 @@ def euler_rate_matrix_into(angles, convention, out):
     return -k
 
 
-@njit(cache=True, error_model="numpy")
+@compiled
 def euler_rates_from_omega(angles, convention, wx, wy, wz):
     """φ̇ = T(φ)⁻¹ ω (K10) as a scalar triple; ω [rad/s] in the frame of R.
 
@@ -226,7 +230,7 @@ def euler_rates_from_omega(angles, convention, wx, wy, wz):
     return wz + st * psi_dot, theta_dot, psi_dot
 
 
-@njit(cache=True, error_model="numpy")
+@compiled
 def euler_rate_inverse_into(angles, convention, out):
     """T(φ)⁻¹ (3, 3) into ``out`` (K10); returns det T.  Rows are inf/nan where det T = 0."""
     for c in range(3):
@@ -240,7 +244,7 @@ def euler_rate_inverse_into(angles, convention, out):
     return -np.cos(angles[1])
 
 
-@njit(cache=True, error_model="numpy")
+@compiled
 def euler_rate_dot_times(angles, rates, convention):
     """Ṫ(φ, φ̇) φ̇ as a scalar triple (K11): the part of ω̇ = T φ̈ + Ṫ φ̇ not due to φ̈.
 
@@ -264,7 +268,7 @@ def euler_rate_dot_times(angles, rates, convention):
     return -cf * fd * td + dk0 * pd, -sf * fd * td + dk1 * pd, dk2 * pd
 
 
-@njit(cache=True, error_model="numpy")
+@compiled
 def rotation_error_into(R_des, R, out):
     """Rotation vector e_O = ϑ r of R_des Rᵀ (axis r, angle ϑ ∈ [0, π]) into ``out`` (3,) (K12).
 

@@ -26,12 +26,13 @@ from numba import njit
 from armlab.model.robot import PRISMATIC
 from armlab.spatial import ZYZ, euler_angles_into, euler_rate_dot_times, euler_rates_from_omega
 
-# Frozen into the compiled code as constants (no allocation per call).
-_EYE3 = np.eye(3)
-_ZERO3 = np.zeros(3)
+# Allocation-free kernels run without reference counting: with it, every array taken out of
+# ``m`` or ``ws`` and every row view costs an atomic increment/decrement pair (measured 2–5×
+# slower on a 6-joint arm).  The two entry points that allocate their scratch keep it.
+kernel = njit(cache=True, _nrt=False)
 
 
-@njit(cache=True, fastmath=False)
+@kernel
 def compose_joint(R_prev, p_prev, X_R, X_p, kind, value, R_out, p_out):
     """R_out, p_out ← (R_prev, p_prev) · (X_R, X_p) · M(value); M about/along local z."""
     for r in range(3):
@@ -60,40 +61,65 @@ def compose_joint(R_prev, p_prev, X_R, X_p, kind, value, R_out, p_out):
         R_out[2, 0], R_out[2, 1], R_out[2, 2] = a20 * c + a21 * s, a21 * c - a20 * s, a22
 
 
-@njit(cache=True)
+@kernel
 def joint_frames_into(m, q, R_out, p_out):
-    """Poses of the joint frames J_1…J_n in Σ_0 (K2): R_out (n, 3, 3), p_out (n, 3)."""
+    """Poses of the joint frames J_1…J_n in Σ_0 (K2): R_out (n, 3, 3), p_out (n, 3).
+
+    Same product as :func:`compose_joint`, written with plain indices: RobotArrays fields are
+    read once and no sub-array views are made, because each field access or view inside the
+    loop costs a reference-count round trip (measured 2–4× slower on a 6-joint arm).
+    """
     n = q.shape[0]
+    tree_R, tree_p, joint_type, offset = m.tree_R, m.tree_p, m.joint_type, m.offset
     for i in range(n):
-        if i == 0:
-            compose_joint(_EYE3, _ZERO3, m.tree_R[0], m.tree_p[0], m.joint_type[0],
-                          q[0] + m.offset[0], R_out[0], p_out[0])
-        else:
-            compose_joint(R_out[i - 1], p_out[i - 1], m.tree_R[i], m.tree_p[i], m.joint_type[i],
-                          q[i] + m.offset[i], R_out[i], p_out[i])
+        value = q[i] + offset[i]
+        revolute = joint_type[i] != PRISMATIC
+        c, s = (np.cos(value), np.sin(value)) if revolute else (1.0, 0.0)
+        for r in range(3):
+            # row r of A = R_{J_{i−1}} X_R and of the origin before the motion
+            if i == 0:
+                a0, a1, a2 = tree_R[0, r, 0], tree_R[0, r, 1], tree_R[0, r, 2]
+                pr = tree_p[0, r]
+            else:
+                b0, b1, b2 = R_out[i - 1, r, 0], R_out[i - 1, r, 1], R_out[i - 1, r, 2]
+                pr = p_out[i - 1, r] + b0 * tree_p[i, 0] + b1 * tree_p[i, 1] + b2 * tree_p[i, 2]
+                a0 = b0 * tree_R[i, 0, 0] + b1 * tree_R[i, 1, 0] + b2 * tree_R[i, 2, 0]
+                a1 = b0 * tree_R[i, 0, 1] + b1 * tree_R[i, 1, 1] + b2 * tree_R[i, 2, 1]
+                a2 = b0 * tree_R[i, 0, 2] + b1 * tree_R[i, 1, 2] + b2 * tree_R[i, 2, 2]
+            if revolute:
+                R_out[i, r, 0] = a0 * c + a1 * s
+                R_out[i, r, 1] = a1 * c - a0 * s
+                p_out[i, r] = pr
+            else:
+                R_out[i, r, 0] = a0
+                R_out[i, r, 1] = a1
+                p_out[i, r] = pr + a2 * value
+            R_out[i, r, 2] = a2
 
 
-@njit(cache=True)
+@kernel
 def end_effector_into(m, R_last, p_last, R_e, p_e):
     """Σ_e in Σ_0 from the last joint frame: T_0e = T_{0,J_n} X_tool (K2)."""
+    tool_R, tool_p = m.tool_R, m.tool_p
     for r in range(3):
         p_e[r] = p_last[r]
         for k in range(3):
-            p_e[r] += R_last[r, k] * m.tool_p[k]
+            p_e[r] += R_last[r, k] * tool_p[k]
         for c in range(3):
             acc = 0.0
             for k in range(3):
-                acc += R_last[r, k] * m.tool_R[k, c]
+                acc += R_last[r, k] * tool_R[k, c]
             R_e[r, c] = acc
 
 
-@njit(cache=True)
+@kernel
 def geometric_jacobian_into(m, R_frames, p_frames, p_e, J_out):
     """Geometric Jacobian (6, n) = [J_P; J_O] in Σ_0 at the point p_e (K3)."""
     n = R_frames.shape[0]
+    joint_type = m.joint_type
     for i in range(n):
         zx, zy, zz = R_frames[i, 0, 2], R_frames[i, 1, 2], R_frames[i, 2, 2]
-        if m.joint_type[i] == PRISMATIC:
+        if joint_type[i] == PRISMATIC:
             J_out[0, i], J_out[1, i], J_out[2, i] = zx, zy, zz
             J_out[3, i], J_out[4, i], J_out[5, i] = 0.0, 0.0, 0.0
         else:
@@ -159,7 +185,7 @@ def kinematics_workspace(n: int) -> KinematicsWorkspace:
                                p_e=np.zeros(3), J=np.zeros((6, n)), angles=np.zeros(3))
 
 
-@njit(cache=True)
+@kernel
 def rotate_rows_inplace(R, A, row0):
     """A[row0:row0+3, :] ← R · A[row0:row0+3, :] for a (k, c) array A, column by column."""
     for c in range(A.shape[1]):
@@ -169,7 +195,7 @@ def rotate_rows_inplace(R, A, row0):
         A[row0 + 2, c] = R[2, 0] * x + R[2, 1] * y + R[2, 2] * z
 
 
-@njit(cache=True)
+@kernel
 def rotate_segment_inplace(R, v, start):
     """v[start:start+3] ← R · v[start:start+3]."""
     x, y, z = v[start], v[start + 1], v[start + 2]
@@ -178,7 +204,7 @@ def rotate_segment_inplace(R, v, start):
     v[start + 2] = R[2, 0] * x + R[2, 1] * y + R[2, 2] * z
 
 
-@njit(cache=True)
+@kernel
 def end_effector_pose_kernel(m, q, in_base, ws):
     """Joint frames (Σ_0) into ws.R, ws.p and Σ_e into ws.R_e, ws.p_e (Σ_0 or Σ_base) (K2).
 
@@ -189,12 +215,13 @@ def end_effector_pose_kernel(m, q, in_base, ws):
     end_effector_into(m, ws.R[n - 1], ws.p[n - 1], ws.R_e, ws.p_e)
     if in_base:
         rotate_rows_inplace(m.base_R, ws.R_e, 0)
-        rotate_segment_inplace(m.base_R, ws.p_e, 0)
+        p_e, base_p = ws.p_e, m.base_p
+        rotate_segment_inplace(m.base_R, p_e, 0)
         for r in range(3):
-            ws.p_e[r] += m.base_p[r]
+            p_e[r] += base_p[r]
 
 
-@njit(cache=True)
+@kernel
 def frame_jacobian_kernel(m, q, in_base, ws, J_out):
     """Geometric Jacobian (6, n) of Σ_e in Σ_0 or Σ_base into J_out (K3).
 
@@ -209,7 +236,7 @@ def frame_jacobian_kernel(m, q, in_base, ws, J_out):
         rotate_rows_inplace(m.base_R, J_out, 3)
 
 
-@njit(cache=True)
+@kernel
 def pose_vector_into(m, q, convention, branch, reference, in_base, ws, x_out):
     """x = [p_e; φ_e] (6,) [m, rad] into x_out, angles of R_e in the chosen frame (K5).
 
@@ -223,7 +250,7 @@ def pose_vector_into(m, q, convention, branch, reference, in_base, ws, x_out):
         x_out[3 + r] = ws.angles[r]
 
 
-@njit(cache=True)
+@kernel
 def analytic_jacobian_into(J, angles, convention, J_A_out):
     """J_A = T_A(φ)⁻¹ J (6, n) into J_A_out (may be J itself); returns det T(φ) (K4).
 
@@ -240,7 +267,7 @@ def analytic_jacobian_into(J, angles, convention, J_A_out):
     return -np.cos(angles[1])
 
 
-@njit(cache=True)
+@kernel
 def analytic_jacobian_kernel(m, q, convention, branch, reference, in_base, ws, J_A_out):
     """Analytic Jacobian J_A (6, n) of x = [p_e; φ_e] into J_A_out; returns det T(φ) (K4).
 
@@ -254,7 +281,7 @@ def analytic_jacobian_kernel(m, q, convention, branch, reference, in_base, ws, J
     return analytic_jacobian_into(J_A_out, ws.angles, convention, J_A_out)
 
 
-@njit(cache=True)
+@kernel
 def jacobian_dot_qd_into(m, R_frames, p_frames, p_e, qd, out):
     """J̇(q, q̇) q̇ = [p̈_e; ω̇_e] at q̈ = 0, (6,) in Σ_0, by one outward recursion (K6).
 
@@ -270,6 +297,7 @@ def jacobian_dot_qd_into(m, R_frames, p_frames, p_e, qd, out):
     :func:`end_effector_into`; ``qd`` (n,) [m/s | rad/s]; ``out`` (6,) [m/s², rad/s²].
     """
     n = qd.shape[0]
+    joint_type = m.joint_type
     wx = wy = wz = 0.0
     ax_ = ay_ = az_ = 0.0      # ω̇
     lx = ly = lz = 0.0         # acceleration of the current origin
@@ -289,7 +317,7 @@ def jacobian_dot_qd_into(m, R_frames, p_frames, p_e, qd, out):
             break
         zx, zy, zz = R_frames[i, 0, 2], R_frames[i, 1, 2], R_frames[i, 2, 2]
         wzx, wzy, wzz = wy * zz - wz * zy, wz * zx - wx * zz, wx * zy - wy * zx   # ω_{i−1} × z_i
-        if m.joint_type[i] == PRISMATIC:
+        if joint_type[i] == PRISMATIC:
             lx += 2.0 * qd[i] * wzx
             ly += 2.0 * qd[i] * wzy
             lz += 2.0 * qd[i] * wzz
@@ -305,7 +333,7 @@ def jacobian_dot_qd_into(m, R_frames, p_frames, p_e, qd, out):
     out[3], out[4], out[5] = ax_, ay_, az_
 
 
-@njit(cache=True)
+@kernel
 def jacobian_dot_qd_kernel(m, q, qd, in_base, ws, out):
     """J̇q̇ (6,) = [p̈_e; ω̇_e] at q̈ = 0 in Σ_0 or Σ_base into out (K6)."""
     n = q.shape[0]
@@ -317,7 +345,7 @@ def jacobian_dot_qd_kernel(m, q, qd, in_base, ws, out):
         rotate_segment_inplace(m.base_R, out, 3)
 
 
-@njit(cache=True)
+@kernel
 def analytic_jacobian_dot_qd_into(jdqd, J_A, qd, angles, convention, out):
     """J̇_A q̇ (6,) = T_A⁻¹ (J̇q̇ − Ṫ_A ẋ) with ẋ = J_A q̇, into out; returns det T (K6).
 
@@ -340,7 +368,7 @@ def analytic_jacobian_dot_qd_into(jdqd, J_A, qd, angles, convention, out):
     return -np.cos(angles[1])
 
 
-@njit(cache=True)
+@kernel
 def analytic_jacobian_dot_qd_kernel(m, q, qd, convention, branch, reference, in_base, ws, out):
     """J̇_A q̇ (6,) of x = [p_e; φ_e] in Σ_0 or Σ_base into out; returns det T(φ) (K6).
 
