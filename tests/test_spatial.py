@@ -6,7 +6,7 @@ definition of the cross product for skew, and angle-axis constructions written o
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import given
 from hypothesis import strategies as st
 
 from armlab.spatial import (
@@ -37,8 +37,6 @@ vector = st.tuples(coordinate, coordinate, coordinate).map(np.array)
 # ϑ away from the representation singularities of each convention
 zyz_theta = st.floats(0.05, np.pi - 0.05)
 rpy_theta = st.floats(-np.pi / 2 + 0.05, np.pi / 2 - 0.05)
-settings.register_profile("armlab", max_examples=60, deadline=None)
-settings.load_profile("armlab")
 
 
 def wrap(a):
