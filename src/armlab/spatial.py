@@ -10,7 +10,7 @@ lengths in metres.  Euler angles are *intrinsic* (moving-axes) sequences:
 
 The angle triple is always ordered ``(φ, ϑ, ψ)`` as the factors appear in the product.
 
-The compiled helpers (``*_into`` and the scalar-returning ``euler_rates_from_omega`` /
+The compiled functions (``*_into`` and the scalar-returning ``euler_rates_from_omega`` /
 ``euler_rate_dot_times``) take their outputs as arguments, allocate nothing and can be called
 from other ``numba`` code; the convention is passed there as an integer (``ZYZ`` or ``RPY``).
 The plain functions below wrap them for Python callers.
@@ -29,7 +29,7 @@ EULER_CODES = {"zyz": ZYZ, "rpy": RPY}
 # |sin ϑ| (ZYZ) or |cos ϑ| (RPY) below this: the angles are at a representation singularity.
 EULER_SINGULAR_EPS = 1e-12
 
-# The compiled helpers never allocate, so they run without reference counting (as the
+# The compiled functions never allocate, so they run without reference counting (as the
 # dynamics kernels do); division by zero gives inf/nan instead of raising.
 compiled = njit(cache=True, error_model="numpy", _nrt=False)
 
@@ -121,7 +121,7 @@ def rotation_to_axis(axis) -> np.ndarray:
     return np.column_stack((x, y, z))
 
 
-# ---------------------------------------------------------------- compiled Euler-angle helpers
+# ---------------------------------------------------------------- compiled Euler-angle functions
 
 
 @compiled
@@ -318,14 +318,14 @@ def rotation_error_into(R_des, R, out):
 
 
 def euler_code(convention: str) -> int:
-    """The integer code (``ZYZ``, ``RPY``) the compiled helpers take for ``convention``."""
+    """The integer code (``ZYZ``, ``RPY``) the compiled functions take for ``convention``."""
     if convention not in EULER_CODES:
         raise ValueError(f"euler: unknown Euler convention {convention!r}; use one of {EULER_CONVENTIONS}")
     return EULER_CODES[convention]
 
 
 def branch_arguments(branch) -> tuple[int, np.ndarray]:
-    """(branch code, reference) for the compiled helpers from ``branch`` = +1, −1 or a triple."""
+    """(branch code, reference) for the compiled functions from ``branch`` = +1, −1 or a triple."""
     if isinstance(branch, (int, np.integer)) and not isinstance(branch, bool):
         if branch not in (1, -1):
             raise ValueError(f"branch: must be +1, -1 or a reference angle triple, got {branch}")
