@@ -36,6 +36,7 @@ from armlab.kernels.packed import pack_robot, unpack_robot
 from armlab.model.robot import Robot
 
 _PACKED: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+_FLOAT = np.dtype(np.float64)
 _NO_WRENCH = np.zeros(6)
 _NO_WRENCH.setflags(write=False)
 
@@ -45,20 +46,26 @@ class SingularInertiaError(ArmlabError):
 
 
 def _packed(robot: Robot):
-    # The packed arrays depend only on the immutable robot (like ``robot.arrays``).
+    """(joint_type, data, workspace buffer) of ``robot``: its arrays packed for cheap calls and
+    a scratch buffer.  The packed arrays depend only on the immutable robot (like
+    ``robot.arrays``); every kernel writes the scratch it reads first, so sharing the buffer
+    between calls (serialised by the GIL, the kernels keep it) cannot change a result."""
     try:
         return _PACKED[robot]
     except KeyError:
-        packed = _PACKED[robot] = pack_robot(robot.arrays)
+        joint_type, data = pack_robot(robot.arrays)
+        packed = _PACKED[robot] = (joint_type, data, np.zeros(workspace_size(robot.n)))
         return packed
 
 
 def _vector(robot: Robot, value, name: str) -> np.ndarray:
-    array = np.asarray(value, dtype=np.float64)
+    # Fast path first: a float64 vector of the right length goes to the kernel as it is
+    # (the compiled code handles any stride).
+    if type(value) is np.ndarray and value.dtype is _FLOAT and value.shape == (len(robot.joints),):
+        return value
+    array = np.ascontiguousarray(value, dtype=np.float64)
     if array.shape != (robot.n,):
         raise ValueError(f"{name} must have shape ({robot.n},) for robot {robot.name!r}, got {array.shape}")
-    if not array.flags.c_contiguous:
-        array = np.ascontiguousarray(array)
     return array
 
 
@@ -71,48 +78,50 @@ def _wrench(h_e) -> np.ndarray:
     return array
 
 
-@njit(cache=True)
-def _rnea_entry(joint_type, data, q, qd, qdd, gravity_scale, h_e, out):
+# Entry points from Python: the robot travels packed and the workspace is a view of one
+# buffer, so a call unboxes a handful of arrays instead of 35 (see kernels/packed.py).
+entry = njit(cache=True, _nrt=False)
+
+
+@entry
+def _rnea_entry(joint_type, data, buf, q, qd, qdd, gravity_scale, h_e, out):
     n = q.shape[0]
-    rnea_into(unpack_robot(joint_type, data), workspace_from_buffer(np.zeros(workspace_size(n)), n),
-              q, qd, qdd, gravity_scale, h_e, out)
+    rnea_into(unpack_robot(joint_type, data), workspace_from_buffer(buf, n), q, qd, qdd, gravity_scale,
+              h_e, out)
 
 
-@njit(cache=True)
-def _mass_matrix_entry(joint_type, data, q, out):
-    n = q.shape[0]
-    mass_matrix_into(unpack_robot(joint_type, data),
-                     workspace_from_buffer(np.zeros(workspace_size(n)), n), q, out)
+@entry
+def _mass_matrix_entry(joint_type, data, buf, q, out):
+    mass_matrix_into(unpack_robot(joint_type, data), workspace_from_buffer(buf, q.shape[0]), q, out)
 
 
-@njit(cache=True)
-def _gravity_entry(joint_type, data, q, out):
-    n = q.shape[0]
-    gravity_into(unpack_robot(joint_type, data), workspace_from_buffer(np.zeros(workspace_size(n)), n),
-                 q, out)
+@entry
+def _gravity_entry(joint_type, data, buf, q, out):
+    gravity_into(unpack_robot(joint_type, data), workspace_from_buffer(buf, q.shape[0]), q, out)
 
 
-@njit(cache=True)
-def _coriolis_entry(joint_type, data, q, qd, out):
-    n = q.shape[0]
-    coriolis_matrix_into(unpack_robot(joint_type, data),
-                         workspace_from_buffer(np.zeros(workspace_size(n)), n), q, qd, out)
+@entry
+def _coriolis_entry(joint_type, data, buf, q, qd, out):
+    coriolis_matrix_into(unpack_robot(joint_type, data), workspace_from_buffer(buf, q.shape[0]), q, qd,
+                         out)
 
 
-@njit(cache=True)
-def _forward_entry(joint_type, data, q, qd, tau, h_e, out):
-    n = q.shape[0]
-    return forward_dynamics_into(unpack_robot(joint_type, data),
-                                 workspace_from_buffer(np.zeros(workspace_size(n)), n),
+@entry
+def _forward_entry(joint_type, data, buf, q, qd, tau, h_e, out):
+    return forward_dynamics_into(unpack_robot(joint_type, data), workspace_from_buffer(buf, q.shape[0]),
                                  q, qd, tau, h_e, out)
 
 
-@njit(cache=True)
-def _energy_entry(joint_type, data, q, qd):
-    n = q.shape[0]
-    m = unpack_robot(joint_type, data)
-    ws = workspace_from_buffer(np.zeros(workspace_size(n)), n)
-    return kinetic_energy_kernel(m, ws, q, qd), potential_energy_kernel(m, ws, q)
+@entry
+def _kinetic_entry(joint_type, data, buf, q, qd):
+    return kinetic_energy_kernel(unpack_robot(joint_type, data), workspace_from_buffer(buf, q.shape[0]),
+                                 q, qd)
+
+
+@entry
+def _potential_entry(joint_type, data, buf, q):
+    return potential_energy_kernel(unpack_robot(joint_type, data), workspace_from_buffer(buf, q.shape[0]),
+                                   q)
 
 
 def inverse_dynamics(robot: Robot, q, qd, qdd, h_e=None, gravity: bool = True) -> np.ndarray:
@@ -128,9 +137,9 @@ def inverse_dynamics(robot: Robot, q, qd, qdd, h_e=None, gravity: bool = True) -
         [N, N·m], μ_e about Σ_e's origin; None for free motion.
     gravity : include g(q) (False: g_0 = 0).
     """
-    joint_type, data = _packed(robot)
+    joint_type, data, buf = _packed(robot)
     tau = np.empty(robot.n)
-    _rnea_entry(joint_type, data, _vector(robot, q, "q"), _vector(robot, qd, "qd"),
+    _rnea_entry(joint_type, data, buf, _vector(robot, q, "q"), _vector(robot, qd, "qd"),
                 _vector(robot, qdd, "qdd"), 1.0 if gravity else 0.0, _wrench(h_e), tau)
     return tau
 
@@ -138,9 +147,9 @@ def inverse_dynamics(robot: Robot, q, qd, qdd, h_e=None, gravity: bool = True) -
 def inertia_matrix(robot: Robot, q) -> np.ndarray:
     """Joint-space inertia matrix B(q), (n, n), symmetric positive definite, rotors included
     (D2, D3), by the composite-rigid-body algorithm.  Units kg | kg·m | kg·m²."""
-    joint_type, data = _packed(robot)
+    joint_type, data, buf = _packed(robot)
     B = np.empty((robot.n, robot.n))
-    _mass_matrix_entry(joint_type, data, _vector(robot, q, "q"), B)
+    _mass_matrix_entry(joint_type, data, buf, _vector(robot, q, "q"), B)
     return B
 
 
@@ -151,17 +160,17 @@ def coriolis_matrix(robot: Robot, q, qd) -> np.ndarray:
 
     so that Ḃ − 2C is skew-symmetric (Siciliano et al. (7.49)).
     """
-    joint_type, data = _packed(robot)
+    joint_type, data, buf = _packed(robot)
     C = np.empty((robot.n, robot.n))
-    _coriolis_entry(joint_type, data, _vector(robot, q, "q"), _vector(robot, qd, "qd"), C)
+    _coriolis_entry(joint_type, data, buf, _vector(robot, q, "q"), _vector(robot, qd, "qd"), C)
     return C
 
 
 def gravity_torque(robot: Robot, q) -> np.ndarray:
     """Gravity torques g(q) = (∂U/∂q)ᵀ, (n,) [N | N·m], with U of (D7)."""
-    joint_type, data = _packed(robot)
+    joint_type, data, buf = _packed(robot)
     g = np.empty(robot.n)
-    _gravity_entry(joint_type, data, _vector(robot, q, "q"), g)
+    _gravity_entry(joint_type, data, buf, _vector(robot, q, "q"), g)
     return g
 
 
@@ -174,9 +183,9 @@ def forward_dynamics(robot: Robot, q, qd, tau, h_e=None) -> np.ndarray:
     :func:`inverse_dynamics`.  Raises :class:`SingularInertiaError` if B is not positive
     definite.
     """
-    joint_type, data = _packed(robot)
+    joint_type, data, buf = _packed(robot)
     qdd = np.empty(robot.n)
-    ok = _forward_entry(joint_type, data, _vector(robot, q, "q"), _vector(robot, qd, "qd"),
+    ok = _forward_entry(joint_type, data, buf, _vector(robot, q, "q"), _vector(robot, qd, "qd"),
                         _vector(robot, tau, "tau"), _wrench(h_e), qdd)
     if not ok:
         raise SingularInertiaError(f"robot {robot.name!r}: inertia matrix B(q) is not positive definite")
@@ -188,8 +197,8 @@ def kinetic_energy(robot: Robot, q, qd) -> float:
 
         T = Σ_i ½ m_i ‖ṗ_Ci‖² + ½ ω_iᵀ I_Ci ω_i + ½ I_mi (z_miᵀ ω_{i−1} + k_ri q̇_i)²       (D6)
     """
-    joint_type, data = _packed(robot)
-    return float(_energy_entry(joint_type, data, _vector(robot, q, "q"), _vector(robot, qd, "qd"))[0])
+    joint_type, data, buf = _packed(robot)
+    return float(_kinetic_entry(joint_type, data, buf, _vector(robot, q, "q"), _vector(robot, qd, "qd")))
 
 
 def potential_energy(robot: Robot, q) -> float:
@@ -197,6 +206,5 @@ def potential_energy(robot: Robot, q) -> float:
 
     Rotor masses are part of the link inertials, so this is the whole potential energy.
     """
-    joint_type, data = _packed(robot)
-    q = _vector(robot, q, "q")
-    return float(_energy_entry(joint_type, data, q, np.zeros(robot.n))[1])
+    joint_type, data, buf = _packed(robot)
+    return float(_potential_entry(joint_type, data, buf, _vector(robot, q, "q")))
