@@ -515,3 +515,85 @@ def log_task_signals(ws, task, signals_out, start):
         signals_out[start + i] = ws.sv[i]
     signals_out[start + n] = det3(ws.J) if n == 3 else 0.0
     return start + n + 1
+
+
+@njit(cache=True)
+def position_error_into(frame, qd, ws):
+    """Position-only task in Σ_0 (T8): x̃ = p_d − p_e, x̃̇ = ṗ_d − J_P q̇, c = p̈_d − J̇_P q̇.
+
+    Rows 3–5 of the outputs are zero (x_err, x_err_dot, c) and J_O (JA); ws.x_e = [p_e; 0].
+    """
+    n = qd.shape[0]
+    for i in range(3):
+        rate = 0.0
+        for j in range(n):
+            rate += ws.J[i, j] * qd[j]
+            ws.JA[i, j] = ws.J[i, j]
+            ws.JA[3 + i, j] = ws.J[3 + i, j]
+        ws.x_e[i] = ws.p_e[i]
+        ws.x_e[3 + i] = 0.0
+        ws.x_err[i] = frame[i] - ws.p_e[i]
+        ws.x_err_dot[i] = frame[12 + i] - rate
+        ws.c[i] = frame[18 + i] - ws.a0[i]
+        ws.x_err[3 + i] = 0.0
+        ws.x_err_dot[3 + i] = 0.0
+        ws.c[3 + i] = 0.0
+
+
+@njit(cache=True)
+def compliant_frame_into(frame_d, zt, zt_dot, zt_ddot, vec, mat, frame_t):
+    """Motion of the compliant frame Σ_t (24,) in Σ_0 from Σ_d's (24,) and z̃ = −[o^d_{d,t};
+    φ_{d,t}] with its rates (6,) each (T9).  With u = R_d o^d_{d,t}, w = R_d T(φ) φ̇:
+
+        o_t = o_d + u,   ȯ_t = ȯ_d + ω_d × u + R_d ȯ^d_{d,t}
+        ö_t = ö_d + ω̇_d × u + ω_d × (ω_d × u) + 2 ω_d × (R_d ȯ^d_{d,t}) + R_d ö^d_{d,t}
+        R_t = R_d R(φ),   ω_t = ω_d + w,   ω̇_t = ω̇_d + ω_d × w + R_d (Ṫ φ̇ + T φ̈)
+
+    ``vec`` (8, 3), ``mat`` (4, 3, 3) scratch.
+    """
+    R_d, R_rel, T, T_dot = mat[0], mat[1], mat[2], mat[3]
+    u, v, a, phi, phid, phidd, t1, t2 = vec[0], vec[1], vec[2], vec[3], vec[4], vec[5], vec[6], vec[7]
+    frame_from_vector(frame_d, R_d)
+    w_d, wd_d = frame_d[15:18], frame_d[21:24]
+    for i in range(3):
+        t1[i] = -zt[i]
+        t2[i] = -zt_dot[i]
+        a[i] = -zt_ddot[i]
+        phi[i] = -zt[3 + i]
+        phid[i] = -zt_dot[3 + i]
+        phidd[i] = -zt_ddot[3 + i]
+    _matvec3(R_d, t1, u)
+    _matvec3(R_d, t2, v)
+    _matvec3(R_d, a, t1)                 # R_d ö^d
+    for i in range(3):
+        frame_t[i] = frame_d[i] + u[i]
+    _cross_into(w_d, u, t2)
+    for i in range(3):
+        frame_t[12 + i] = frame_d[12 + i] + t2[i] + v[i]
+    _cross_into(w_d, t2, a)              # ω_d × (ω_d × u)
+    for i in range(3):
+        t1[i] += a[i]
+    _cross_into(wd_d, u, a)
+    for i in range(3):
+        t1[i] += a[i]
+    _cross_into(w_d, v, a)
+    for i in range(3):
+        frame_t[18 + i] = frame_d[18 + i] + t1[i] + 2.0 * a[i]
+    euler_xyz_matrix_into(phi[0], phi[1], phi[2], R_rel)
+    for r in range(3):
+        for c in range(3):
+            frame_t[3 + 3 * r + c] = (R_d[r, 0] * R_rel[0, c] + R_d[r, 1] * R_rel[1, c]
+                                      + R_d[r, 2] * R_rel[2, c])
+    euler_xyz_rate_into(phi[0], phi[1], T)
+    euler_xyz_rate_dot_into(phi[0], phi[1], phid[0], phid[1], T_dot)
+    _matvec3(T, phid, t1)
+    _matvec3(R_d, t1, u)                 # w
+    _matvec3(T_dot, phid, t1)
+    _matvec3(T, phidd, t2)
+    for i in range(3):
+        t1[i] += t2[i]
+    _matvec3(R_d, t1, t2)
+    _cross_into(w_d, u, t1)
+    for i in range(3):
+        frame_t[15 + i] = w_d[i] + u[i]
+        frame_t[21 + i] = wd_d[i] + t1[i] + t2[i]

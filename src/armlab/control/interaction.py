@@ -1,0 +1,368 @@
+"""Interaction control (seed A11–A15; Siciliano et al. ch. 9).
+
+Indirect force control works on the pose relative to the desired frame Σ_d
+(``frame="desired"``, x̃ = −[o^d_{d,e}; φ_{d,e}], XYZ angles, T1–T4):
+
+* :class:`ComplianceControl` (A11)   τ = g + J_{A_d}ᵀ (K_P x̃ − K_D J_{A_d} q̇)               (C11)
+* :class:`ImpedanceControl` (A12)    M_d x̃̈ + K_D x̃̇ + K_P x̃ = h_A imposed through inverse
+  dynamics with the measured wrench                                                        (C12)
+* :class:`AdmittanceControl` (A13)   compliant frame Σ_t from M_t z̃̈ + K_Dt z̃̇ + K_Pt z̃ = h_e^d,
+  tracked by an inner inverse-dynamics motion loop                                         (C13)
+
+Direct force control works on the position in Σ_0 and the force f_e = h_e[:3] in Σ_0:
+
+* :class:`ForceControl` (A14)        x_F = C_F (f_d − f_e) as a position (inner position loop)
+  or a velocity (inner velocity loop) reference                                            (C14)
+* :class:`ParallelForcePosition` (A15) the inner position loop fed with x̃ + x_F            (C15)
+
+with C_F = K_F + K_I/s; the integral ∫(f_d − f_e) dt is the controller state.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from numba import njit
+
+from armlab.control.base import Controller, Signal
+from armlab.control.task_space import (
+    COMPONENT_LABELS,
+    ControllerSpecError,
+    OperationalPD,
+    TaskController,
+    gain_matrix,
+    inverse_dynamics_law,
+    log_pose_signals,
+    solve_and_apply,
+)
+from armlab.kernels.dynamics import make_workspace
+from armlab.kernels.task_space import (
+    RELATIVE,
+    compliant_frame_into,
+    frame_from_vector,
+    log_task_signals,
+    measure_into,
+    position_error_into,
+    select_rows_into,
+    task_error_into,
+    task_solve_into,
+    task_workspace,
+)
+from armlab.model.robot import Robot
+from armlab.task_references import ForceReference, PoseReference, force_reference_into, pose_reference_into
+
+ALL6 = (0, 1, 2, 3, 4, 5)
+
+
+@dataclass(frozen=True)
+class ComplianceControl(OperationalPD):
+    """Compliance control (seed A11; Siciliano (9.15)): PD + gravity in Σ_d,
+
+        τ = g(q) + J_{A_d}ᵀ(q, x̃) (K_P x̃ − K_D J_{A_d}(q, x̃) q̇)                            (C11)
+
+    At rest in contact with a spring environment of stiffness K about Σ_r ∥ Σ_d (E2, E3) the
+    equilibrium is K_P x̃ = K x_{r,e}, i.e. x_e = (K_P + K)⁻¹(K_P x_d + K x_r) component by
+    component of Σ_d (the directions the robot can move).  No inverse is needed, so every
+    component may be controlled (``task`` default: all six, in Σ_d's axes).
+    """
+
+    task: tuple = ALL6
+    frame: str = "desired"
+
+
+@dataclass(frozen=True)
+class ImpedanceControl(TaskController):
+    """Impedance control (seed A12; Siciliano (9.29)–(9.31)), inverse dynamics with the
+    measured contact wrench:
+
+        τ = B(q) y + n(q, q̇) + Jᵀ(q) h_e
+        J_{A_d,s} y = M_d⁻¹ (K_D x̃̇_s + K_P x̃_s − h_{A,s}) + c_s,  c = ḃ − J̇_{A_d} q̇          (C12)
+
+    so that, with an exact model, M_d x̃̈ + K_D x̃̇ + K_P x̃ = h_A with h_A = T_Aᵀ(φ_{d,e}) h_e^d
+    on the task components.  The seed writes −M_d b and h_e^d in y: the drift term enters with
+    +M_d ḃ (from x̃̈ = −J_{A_d} q̈ − J̇_{A_d} q̇ + ḃ) and the wrench as h_A (= h_e^d only where
+    T(φ_{d,e}) = I).  ``mass`` M_d (k, k) [kg, kg·m²] positive definite.
+    """
+
+    mass: object = 1.0
+    frame: str = "desired"
+
+    needs_inverse = True
+    law = inverse_dynamics_law
+
+    def params(self) -> tuple:
+        mass = gain_matrix(self.mass, self.task, "mass", positive_definite=True)
+        return self._common() + (np.linalg.inv(mass), np.array([1.0, float(self.damping)]))
+
+
+@njit(cache=True)
+def admittance_law(t, q, qd, z, h_e, params, tau_out, zdot_out, signals_out):
+    """Admittance control (C13):
+
+        M_t z̃̈ + K_Dt z̃̇ + K_Pt z̃ = h_e^d,   z̃ = −[o^d_{d,t}; φ_{d,t}]   (state z = [z̃; z̃̇])
+        τ = B y + n + Jᵀ h_e,   J_{A_t,s} y = K_D x̃̇_{t,s} + K_P x̃_{t,s} + c_{t,s}
+
+    x̃_t the pose error relative to the compliant frame Σ_t (T1–T4 with Σ_a = Σ_t, T9).
+    """
+    (m, dws, ws, ref, task, kp, kd, mode, convention, angles,
+     mt_inv, kdt, kpt, frame_t, h_d, zdd, damping) = params
+    k = task.shape[0]
+    pose_reference_into(ref, t, ws.frame)
+    R_d = ws.mat[0]
+    frame_from_vector(ws.frame, R_d)
+    for i in range(3):
+        h_d[i] = R_d[0, i] * h_e[0] + R_d[1, i] * h_e[1] + R_d[2, i] * h_e[2]
+        h_d[3 + i] = R_d[0, i] * h_e[3] + R_d[1, i] * h_e[4] + R_d[2, i] * h_e[5]
+    for i in range(6):
+        acc = h_d[i]
+        for j in range(6):
+            acc -= kdt[i, j] * z[6 + j] + kpt[i, j] * z[j]
+        ws.w6[i] = acc
+    for i in range(6):
+        acc = 0.0
+        for j in range(6):
+            acc += mt_inv[i, j] * ws.w6[j]
+        zdd[i] = acc
+        zdot_out[i] = z[6 + i]
+        zdot_out[6 + i] = acc
+    compliant_frame_into(ws.frame, z[:6], z[6:], zdd, ws.vec, ws.mat, frame_t)
+    measure_into(m, q, qd, ws)
+    task_error_into(RELATIVE, frame_t, convention, angles, qd, ws)
+    select_rows_into(task, ws.JA, ws.A)
+    for r in range(k):
+        acc = ws.c[task[r]]
+        for c in range(k):
+            acc += kd[r, c] * ws.x_err_dot[task[c]] + kp[r, c] * ws.x_err[task[c]]
+        ws.rhs[r] = acc
+    task_solve_into(ws.A, ws.rhs, damping[0], ws.G, ws.y)
+    solve_and_apply(m, dws, ws, q, qd, h_e, True, tau_out)
+    start = log_task_signals(ws, task, signals_out, log_pose_signals(ws, signals_out))
+    for i in range(3):
+        signals_out[start + i] = frame_t[i]
+    for i in range(6):
+        signals_out[start + 3 + i] = z[i]
+
+
+@dataclass(frozen=True)
+class AdmittanceControl(TaskController):
+    """Admittance control (seed A13; Siciliano §9.3), law (C13) in ``admittance_law``.
+
+    The outer admittance M_t z̃̈ + K_Dt z̃̇ + K_Pt z̃ = h_e^d (``mass_t``, ``kd_t``, ``kp_t``,
+    (6, 6) or diagonals, in Σ_d's axes) turns the measured wrench into the compliant frame Σ_t;
+    the inner loop (``kp`` [1/s²], ``kd`` [1/s], (k, k)) makes Σ_e follow Σ_t with
+    x̃̈_t + K_D x̃̇_t + K_P x̃_t = 0 on the task components.  The inner loop should be faster than
+    the admittance.  Signals: the pose signals relative to Σ_t, ``p_t`` (Σ_t's origin in Σ_0)
+    and ``z_tilde``.
+    """
+
+    mass_t: object = 1.0
+    kd_t: object = 1.0
+    kp_t: object = 1.0
+    frame: str = "desired"
+
+    needs_inverse = True
+    law = admittance_law
+
+    def params(self) -> tuple:
+        if self.frame != "desired":
+            raise ControllerSpecError("frame: admittance control works in Σ_d ('desired')")
+        mass_t = gain_matrix(self.mass_t, ALL6, "mass_t", positive_definite=True)
+        return self._common() + (np.linalg.inv(mass_t), gain_matrix(self.kd_t, ALL6, "kd_t"),
+                                 gain_matrix(self.kp_t, ALL6, "kp_t"), np.zeros(24), np.zeros(6),
+                                 np.zeros(6), np.array([float(self.damping)]))
+
+    def initial_state(self) -> np.ndarray:
+        return np.zeros(12)
+
+    def state_labels(self) -> tuple[str, ...]:
+        return tuple(f"zt_{c}" for c in COMPONENT_LABELS) + tuple(f"zt_dot_{c}" for c in COMPONENT_LABELS)
+
+    def state_units(self) -> tuple[str, ...]:
+        return ("m",) * 3 + ("rad",) * 3 + ("m/s",) * 3 + ("rad/s",) * 3
+
+    def signals(self) -> tuple[Signal, ...]:
+        return self._task_signals() + (Signal("p_t", ("x", "y", "z"), ("m",) * 3),
+                                       Signal("z_tilde", COMPONENT_LABELS, ("m",) * 3 + ("rad",) * 3))
+
+
+@njit(cache=True)
+def force_motion_law(t, q, qd, z, h_e, params, tau_out, zdot_out, signals_out):
+    """Force control with inner position / velocity loop and parallel force/position (C14, C15):
+
+        x_F = K_F (f_d − f_e) + K_I ∫(f_d − f_e) dt                     (state z = ∫(f_d − f_e))
+        J_P y = M_d⁻¹ (K_D x̃̇ + K_P (w x̃ + x_F)) + c,   τ = B y + n + Jᵀ h_e
+
+    x̃ = x_d − p_e, x̃̇ = ẋ_d − ṗ_e, c = ẍ_d − J̇_P q̇ (T8); w = 1 (position loop; x_d = 0 for pure
+    force control, the reference for parallel control), w = 0 (velocity loop, x_d = 0).
+    """
+    (m, dws, ws, ref, task, kp, kd, md_inv, force_ref, kf, ki, options, f_d, x_f) = params
+    position_feedback = options[0]
+    damping = options[1]
+    force_reference_into(force_ref, t, f_d)
+    for i in range(3):
+        zdot_out[i] = f_d[i] - h_e[i]
+    for i in range(3):
+        acc = 0.0
+        for j in range(3):
+            acc += kf[i, j] * (f_d[j] - h_e[j]) + ki[i, j] * z[j]
+        x_f[i] = acc
+    pose_reference_into(ref, t, ws.frame)
+    measure_into(m, q, qd, ws)
+    position_error_into(ws.frame, qd, ws)
+    select_rows_into(task, ws.JA, ws.A)
+    for r in range(3):
+        acc = 0.0
+        for c in range(3):
+            acc += kd[r, c] * ws.x_err_dot[c] + kp[r, c] * (position_feedback * ws.x_err[c] + x_f[c])
+        ws.h[r] = acc
+    for r in range(3):
+        acc = ws.c[r]
+        for c in range(3):
+            acc += md_inv[r, c] * ws.h[c]
+        ws.rhs[r] = acc
+    task_solve_into(ws.A, ws.rhs, damping, ws.G, ws.y)
+    solve_and_apply(m, dws, ws, q, qd, h_e, True, tau_out)
+    for i in range(3):
+        signals_out[i] = f_d[i]
+        signals_out[3 + i] = h_e[i]
+        signals_out[6 + i] = x_f[i]
+        signals_out[9 + i] = ws.p_e[i]
+        signals_out[12 + i] = ws.frame[i]
+    log_task_signals(ws, task, signals_out, 15)
+
+
+INNER_LOOPS = ("position", "velocity")
+
+
+@dataclass(frozen=True)
+class _ForceBase(Controller):
+    model: Robot
+    force: ForceReference
+    kp: object
+    kd: object
+    kf: object
+    ki: object = 0.0
+    mass: object = 1.0
+    damping: float = 0.0
+    singular_warning: float = 0.02
+
+    law = force_motion_law
+
+    def _check(self):
+        if not isinstance(self.force, ForceReference):
+            raise ControllerSpecError("force: must be a ForceReference")
+        if not (np.isfinite(self.damping) and self.damping >= 0.0):
+            raise ControllerSpecError("damping: must be ≥ 0")
+        if self.damping == 0.0 and self.model.n != 3:
+            raise ControllerSpecError(f"damping: a 3-component position task on a {self.model.n}-joint "
+                                      f"robot has no exact inverse; give damping > 0")
+        for name in ("kp", "kd", "kf", "ki"):
+            gain_matrix(getattr(self, name), (0, 1, 2), name)
+        gain_matrix(self.mass, (0, 1, 2), "mass", positive_definite=True)
+
+    def _params(self, reference: PoseReference, position_feedback: float) -> tuple:
+        task = (0, 1, 2)
+        mass = gain_matrix(self.mass, task, "mass", positive_definite=True)
+        return (self.model.arrays, make_workspace(self.model.n), task_workspace(self.model.n, 3),
+                np.array(reference.data), np.array(task, dtype=np.int64), gain_matrix(self.kp, task, "kp"),
+                gain_matrix(self.kd, task, "kd"), np.linalg.inv(mass), np.array(self.force.data),
+                gain_matrix(self.kf, task, "kf"), gain_matrix(self.ki, task, "ki"),
+                np.array([position_feedback, float(self.damping)]), np.zeros(3), np.zeros(3))
+
+    k = 3
+    check = TaskController.check
+
+    def initial_state(self) -> np.ndarray:
+        return np.zeros(3)
+
+    def state_labels(self) -> tuple[str, ...]:
+        return ("int_fx", "int_fy", "int_fz")
+
+    def state_units(self) -> tuple[str, ...]:
+        return ("N·s",) * 3
+
+    def signals(self) -> tuple[Signal, ...]:
+        xyz = ("x", "y", "z")
+        n = self.model.n
+        return (Signal("f_des", xyz, ("N",) * 3), Signal("f_e", xyz, ("N",) * 3),
+                Signal("x_F", xyz, ("m",) * 3), Signal("p_e", xyz, ("m",) * 3),
+                Signal("p_des", xyz, ("m",) * 3),
+                Signal("sigma", tuple(f"sigma{i + 1}" for i in range(n)), ("",) * n),
+                Signal("det_JP", ("det",), ("",)))
+
+    def describe(self) -> dict:
+        out = {"type": type(self).__name__, "model": self.model.name, "force": self.force.describe()}
+        for name in ("kp", "kd", "kf", "ki", "mass"):
+            out[name] = np.asarray(getattr(self, name), dtype=float).tolist()
+        return out
+
+
+_ORIGIN = PoseReference.constant(np.zeros(3), np.eye(3))
+
+
+@dataclass(frozen=True)
+class ForceControl(_ForceBase):
+    """Force control with an inner position or velocity loop (seed A14; Siciliano §9.4),
+    law (C14) in ``force_motion_law``.
+
+    ``inner="position"``: M_d ẍ_e + K_D ẋ_e + K_P x_e = K_P x_F — x_F is a *position* in Σ_0,
+    so along directions where the environment gives no force (outside Image(K)) x_F stays 0
+    and the end effector is driven towards Σ_0's origin: the drift the seed saw along z.
+    ``inner="velocity"``: M_d ẍ_e + K_D ẋ_e = K_P x_F — x_F is a velocity reference, directions
+    without force stay where they are.  f_e → f_d along Image(K) with K_I > 0 (position loop)
+    or with K_F alone (velocity loop, its integrator is the environment's position).
+    ``kf`` [m/N | (m/s)/N], ``ki`` [m/(N·s)], ``kp`` [1/s²], ``kd`` [1/s], ``mass`` M_d.
+
+    ``x_F0`` (3,) [m] starts the integrator at ∫(f_d − f_e) = K_I⁺ x_F0 (it must lie in the range
+    of K_I), so that the force loop begins from a position instead of Σ_0's origin — e.g. the
+    environment's rest position along its normal, while the other components stay 0 as in the
+    seed.
+    """
+
+    inner: str = "position"
+    x_F0: object = None
+
+    def __post_init__(self):
+        if self.inner not in INNER_LOOPS:
+            raise ControllerSpecError(f"inner: {self.inner!r} is not 'position' or 'velocity'")
+        self._check()
+        z0 = np.zeros(3)
+        if self.x_F0 is not None:
+            target = np.asarray(self.x_F0, dtype=float)
+            if target.shape != (3,) or not np.all(np.isfinite(target)):
+                raise ControllerSpecError("x_F0: must be a finite position (3,) [m]")
+            ki = gain_matrix(self.ki, (0, 1, 2), "ki")
+            z0 = np.linalg.lstsq(ki, target, rcond=None)[0]
+            if np.abs(ki @ z0 - target).max() > 1e-9 * max(1.0, np.abs(target).max()):
+                raise ControllerSpecError("x_F0: must lie in the range of ki (the integral gain)")
+        object.__setattr__(self, "_z0", z0)
+
+    def initial_state(self) -> np.ndarray:
+        return self._z0.copy()
+
+    def params(self) -> tuple:
+        return self._params(_ORIGIN, 1.0 if self.inner == "position" else 0.0)
+
+
+@dataclass(frozen=True)
+class ParallelForcePosition(_ForceBase):
+    """Parallel force/position control (seed A15; Siciliano §9.4.3), law (C15):
+
+        M_d ẍ_e + K_D ẋ_e + K_P x_e = K_P (x_d + x_F),   x_F = K_F (f_d − f_e) + K_I ∫(f_d − f_e)
+
+    At equilibrium with a spring environment, f_e = f_d along Image(K) (integral action) and
+    x_e = x_d along the unconstrained directions; a component of f_d outside Image(K) is never
+    met, its integral grows without bound and the end effector runs away (the seed's last
+    experiment; the simulator stops it as diverged).  ``reference`` gives x_d (positions).
+    """
+
+    reference: PoseReference = field(default=_ORIGIN)
+
+    def __post_init__(self):
+        if not isinstance(self.reference, PoseReference):
+            raise ControllerSpecError("reference: must be a PoseReference")
+        self._check()
+
+    def params(self) -> tuple:
+        return self._params(self.reference, 1.0)

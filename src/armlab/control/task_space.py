@@ -1,0 +1,302 @@
+"""Operational-space motion control (seed A9, A10; Siciliano et al. §8.6).
+
+Both controllers regulate or track a :class:`~armlab.task_references.PoseReference` Σ_d(t)
+in one of two task coordinates (``frame``):
+
+* ``"base"`` — x = [p_e; φ_e] in Σ_0 with Euler angles ``euler`` (the seed's ZYZ), error
+  x̃ = x_d − x_e and analytic Jacobian J_A = T_A⁻¹(φ_e) J  (T6);
+* ``"desired"`` — Σ_d-relative, x̃ = −[o^d_{d,e}; φ_{d,e}] (XYZ angles, T(0) = I) and
+  J_{A_d} = T_A⁻¹(φ_{d,e}) blockdiag(R_dᵀ, R_dᵀ) J  (T1–T4), the form of chapter 9.
+
+A robot with fewer than six joints cannot follow a 6-D task: ``task`` selects the k components
+of x controlled (default: position, (0, 1, 2)); gains are k × k (or 6 × 6 / 6-vectors, sliced
+to the task).  Where a law must invert the k × n task Jacobian J_s it uses its exact inverse
+when k = n and ``damping`` = 0, else the damped least-squares y = (J_sᵀJ_s + λ²I)⁻¹J_sᵀ r (T5).
+Every controller logs the singular values σ of J_s (``sigma``) and the seed's det J_P
+(``det_JP``, 3-joint robots); :meth:`TaskController.check` warns (``SingularityWarning``) when
+σ_min fell below ``singular_warning``.
+"""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass, field
+
+import numpy as np
+from numba import njit
+
+from armlab.control.base import Controller, Signal
+from armlab.errors import ArmlabError
+from armlab.kernels.dynamics import bias_into, gravity_into, make_workspace, mass_matrix_into
+from armlab.kernels.task_space import (
+    ABSOLUTE,
+    RELATIVE,
+    log_task_signals,
+    measure_into,
+    select_rows_into,
+    task_error_into,
+    task_solve_into,
+    task_workspace,
+    wrench_in_task_into,
+)
+from armlab.model.robot import Robot
+from armlab.spatial import euler_code, euler_from_matrix
+from armlab.task_references import PoseReference, pose_reference_into
+
+FRAMES = {"desired": RELATIVE, "base": ABSOLUTE}
+
+
+class ControllerSpecError(ArmlabError, ValueError):
+    """Controller parameters that cannot define the law (names the field)."""
+
+
+class SingularityWarning(UserWarning):
+    """The task Jacobian came close to singular during a run."""
+
+
+def gain_matrix(value, task, name: str, *, positive_definite: bool = False) -> np.ndarray:
+    """A (k, k) gain for the task components ``task`` from a scalar, a k- or 6-vector (its
+    diagonal) or a (k, k) / (6, 6) matrix (sliced to the task)."""
+    k = len(task)
+    array = np.asarray(value, dtype=float)
+    if array.ndim == 0:
+        array = float(array) * np.eye(k)
+    elif array.ndim == 1:
+        if array.shape[0] not in (k, 6):
+            raise ControllerSpecError(f"{name}: need {k} (task) or 6 diagonal entries, got {array.shape[0]}")
+        array = np.diag(array[list(task)] if array.shape[0] == 6 and k != 6 else array)
+    elif array.shape == (6, 6) and k != 6:
+        array = array[np.ix_(task, task)]
+    if array.shape != (k, k):
+        raise ControllerSpecError(f"{name}: must be ({k}, {k}) for the task {tuple(task)}, got {array.shape}")
+    if not np.all(np.isfinite(array)):
+        raise ControllerSpecError(f"{name}: must be finite")
+    if positive_definite and (np.abs(array - array.T).max() > 1e-12 * max(1.0, np.abs(array).max())
+                              or np.linalg.eigvalsh(array).min() <= 0.0):
+        raise ControllerSpecError(f"{name}: must be symmetric positive definite")
+    return np.ascontiguousarray(array)
+
+
+COMPONENT_LABELS = ("x", "y", "z", "phi1", "phi2", "phi3")
+
+
+@dataclass(frozen=True)
+class TaskController(Controller):
+    """Fields shared by the task-space controllers (see the module docstring)."""
+
+    model: Robot
+    reference: PoseReference
+    kp: object
+    kd: object
+    task: tuple = (0, 1, 2)
+    frame: str = "base"
+    euler: str = "zyz"
+    angle_reference: object = None
+    damping: float = 0.0
+    singular_warning: float = 0.02
+    _derived: dict = field(init=False, repr=False, compare=False)
+
+    def __post_init__(self):
+        task = tuple(int(i) for i in self.task)
+        if not task or len(set(task)) != len(task) or not all(0 <= i < 6 for i in task):
+            raise ControllerSpecError(f"task: must be distinct components of [x, y, z, φ1, φ2, φ3] "
+                                      f"numbered 0–5, got {self.task}")
+        object.__setattr__(self, "task", task)
+        if self.frame not in FRAMES:
+            raise ControllerSpecError(f"frame: {self.frame!r} is not 'base' or 'desired'")
+        try:
+            convention = euler_code(self.euler)
+        except ValueError as error:
+            raise ControllerSpecError(str(error)) from None
+        if not isinstance(self.reference, PoseReference):
+            raise ControllerSpecError("reference: must be a PoseReference")
+        if not (np.isfinite(self.damping) and self.damping >= 0.0):
+            raise ControllerSpecError("damping: must be ≥ 0")
+        if self.damping == 0.0 and len(task) != self.model.n and self.needs_inverse:
+            raise ControllerSpecError(f"damping: a {len(task)}-component task on a {self.model.n}-joint "
+                                      f"robot has no exact inverse; give damping > 0 (damped least squares)")
+        if self.angle_reference is None:
+            angles = euler_from_matrix(self.reference.rotations[0], self.euler)
+        else:
+            angles = np.asarray(self.angle_reference, dtype=float)
+            if angles.shape != (3,) or not np.all(np.isfinite(angles)):
+                raise ControllerSpecError("angle_reference: must be three finite Euler angles [rad]")
+        object.__setattr__(self, "_derived", {
+            "task": np.array(task, dtype=np.int64), "convention": convention,
+            "angles": np.array(angles, dtype=float), "mode": FRAMES[self.frame],
+            "kp": gain_matrix(self.kp, task, "kp"), "kd": gain_matrix(self.kd, task, "kd")})
+
+    needs_inverse = False
+
+    @property
+    def k(self) -> int:
+        return len(self.task)
+
+    def _common(self):
+        d = self._derived
+        return (self.model.arrays, make_workspace(self.model.n), task_workspace(self.model.n, self.k),
+                np.array(self.reference.data), d["task"], d["kp"], d["kd"], d["mode"],
+                d["convention"], d["angles"].copy())
+
+    def _task_signals(self) -> tuple[Signal, ...]:
+        angle_unit = "rad"
+        units6 = ("m",) * 3 + (angle_unit,) * 3
+        n = self.model.n
+        return (Signal("x_err", COMPONENT_LABELS, units6),
+                Signal("x_e", COMPONENT_LABELS, units6),
+                Signal("p_des", ("x", "y", "z"), ("m",) * 3),
+                Signal("sigma", tuple(f"sigma{i + 1}" for i in range(n)), ("",) * n),
+                Signal("det_JP", ("det",), ("",)))
+
+    def signals(self) -> tuple[Signal, ...]:
+        return self._task_signals()
+
+    def check(self, result) -> list[str]:
+        """Warn (``SingularityWarning``) if σ_min of the task Jacobian went below
+        ``singular_warning`` during ``result``; returns the messages."""
+        messages = []
+        sigma = result.signals.get("sigma")
+        if sigma is not None and sigma.shape[0]:
+            low = sigma[:, self.k - 1] if self.k <= sigma.shape[1] else sigma[:, -1]
+            index = int(np.argmin(low))
+            if low[index] < self.singular_warning:
+                messages.append(f"task Jacobian near singular: σ_min = {low[index]:.3g} at "
+                                f"t = {result.t[index]:.4g} s (threshold {self.singular_warning:g})")
+        for message in messages:
+            warnings.warn(message, SingularityWarning, stacklevel=2)
+        return messages
+
+    def describe(self) -> dict:
+        out = {"type": type(self).__name__, "model": self.model.name,
+               "reference": self.reference.describe(), "task": list(self.task), "frame": self.frame,
+               "euler": self.euler, "damping": self.damping}
+        for key, value in self._derived.items():
+            if key.startswith("k") or key.startswith("m"):
+                out[key] = value.tolist() if isinstance(value, np.ndarray) else value
+        return out
+
+
+@njit(cache=True)
+def log_pose_signals(ws, signals_out):
+    """x_err (6), x_e (6), p_des (3), then σ and det_JP; returns the next free index."""
+    for i in range(6):
+        signals_out[i] = ws.x_err[i]
+        signals_out[6 + i] = ws.x_e[i]
+    for i in range(3):
+        signals_out[12 + i] = ws.frame[i]
+    return 15
+
+
+@njit(cache=True)
+def operational_pd_law(t, q, qd, z, h_e, params, tau_out, zdot_out, signals_out):
+    """τ = g(q) + J_sᵀ (K_P x̃_s − K_D J_s q̇)   (C9, Siciliano (8.110); (9.15) in Σ_d)."""
+    m, dws, ws, ref, task, kp, kd, mode, convention, angles = params
+    k = task.shape[0]
+    n = q.shape[0]
+    pose_reference_into(ref, t, ws.frame)
+    measure_into(m, q, qd, ws)
+    task_error_into(mode, ws.frame, convention, angles, qd, ws)
+    select_rows_into(task, ws.JA, ws.A)
+    for r in range(k):
+        rate = 0.0
+        for j in range(n):
+            rate += ws.A[r, j] * qd[j]
+        ws.w6[r] = rate
+    for r in range(k):
+        acc = 0.0
+        for c in range(k):
+            acc += kp[r, c] * ws.x_err[task[c]] - kd[r, c] * ws.w6[c]
+        ws.rhs[r] = acc
+    gravity_into(m, dws, q, tau_out)
+    for j in range(n):
+        acc = 0.0
+        for r in range(k):
+            acc += ws.A[r, j] * ws.rhs[r]
+        tau_out[j] += acc
+    log_task_signals(ws, task, signals_out, log_pose_signals(ws, signals_out))
+
+
+@njit(cache=True)
+def inverse_dynamics_law(t, q, qd, z, h_e, params, tau_out, zdot_out, signals_out):
+    """Operational-space inverse dynamics / impedance (C10, C12):
+
+        J_s y = M_d⁻¹ (K_D x̃̇_s + K_P x̃_s − w h_{A,s}) + c_s,    τ = B(q) y + n(q, q̇) + w Jᵀ h_e
+
+    with c = ẍ_d − J̇_A q̇ (T6) or its Σ_d form (T4), w = 1 for impedance (measured h_e fed back
+    and compensated), w = 0 for plain inverse dynamics (M_d = I).
+    """
+    m, dws, ws, ref, task, kp, kd, mode, convention, angles, md_inv, options = params
+    with_force = options[0] != 0.0
+    damping = options[1]
+    k = task.shape[0]
+    pose_reference_into(ref, t, ws.frame)
+    measure_into(m, q, qd, ws)
+    task_error_into(mode, ws.frame, convention, angles, qd, ws)
+    select_rows_into(task, ws.JA, ws.A)
+    if with_force:
+        wrench_in_task_into(mode, convention, ws, h_e, ws.h_task)
+    for r in range(k):
+        acc = 0.0
+        for c in range(k):
+            acc += kd[r, c] * ws.x_err_dot[task[c]] + kp[r, c] * ws.x_err[task[c]]
+        if with_force:
+            acc -= ws.h_task[task[r]]
+        ws.h[r] = acc
+    for r in range(k):
+        acc = ws.c[task[r]]
+        for c in range(k):
+            acc += md_inv[r, c] * ws.h[c]
+        ws.rhs[r] = acc
+    task_solve_into(ws.A, ws.rhs, damping, ws.G, ws.y)
+    solve_and_apply(m, dws, ws, q, qd, h_e, with_force, tau_out)
+    log_task_signals(ws, task, signals_out, log_pose_signals(ws, signals_out))
+
+
+@njit(cache=True)
+def solve_and_apply(m, dws, ws, q, qd, h_e, compensate, tau_out):
+    """τ = B(q) ws.y + n(q, q̇) (+ Jᵀ h_e when ``compensate``) into tau_out."""
+    n = q.shape[0]
+    for i in range(6):
+        ws.w6[i] = h_e[i] if compensate else 0.0
+    bias_into(m, dws, q, qd, ws.w6, tau_out)
+    mass_matrix_into(m, dws, q, ws.G)
+    for i in range(n):
+        acc = 0.0
+        for j in range(n):
+            acc += ws.G[i, j] * ws.y[j]
+        tau_out[i] += acc
+
+
+@dataclass(frozen=True)
+class OperationalPD(TaskController):
+    """Operational-space PD with gravity compensation (seed A9; Siciliano (8.110)):
+
+        τ = g(q) + J_sᵀ(q) (K_P x̃_s − K_D J_s(q) q̇)                                     (C9)
+
+    J_s = S J_A (``frame="base"``) or S J_{A_d} (``frame="desired"``), S the task selection.
+    Regulation law: the reference's velocity is not fed forward.  The seed's "equivalent"
+    second form g + J_AᵀK_P x̃ − K_D q̇ damps in joint space instead and is a different law.
+    ``kp``, ``kd`` (k, k) [N/m, N·s/m; N·m/rad, N·m·s/rad].
+    """
+
+    law = operational_pd_law
+
+    def params(self) -> tuple:
+        return self._common()
+
+
+@dataclass(frozen=True)
+class OperationalInverseDynamics(TaskController):
+    """Operational-space inverse dynamics (seed A10; Siciliano (8.114)–(8.115)):
+
+        τ = B(q) y + n(q, q̇),   J_s y = ẍ_d,s + K_D x̃̇_s + K_P x̃_s − (J̇_A q̇)_s              (C10)
+
+    so that (model exact) x̃̈_s + K_D x̃̇_s + K_P x̃_s = 0.  ``kp`` [1/s²], ``kd`` [1/s] (k, k).
+    J_s is inverted exactly when k = n, by damped least squares (``damping`` λ) otherwise.
+    """
+
+    needs_inverse = True
+    law = inverse_dynamics_law
+
+    def params(self) -> tuple:
+        return self._common() + (np.eye(self.k), np.array([0.0, float(self.damping)]))
