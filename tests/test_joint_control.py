@@ -1,0 +1,98 @@
+"""Joint-space PD + gravity (A6) and inverse dynamics (A7) against theory."""
+
+import numpy as np
+import pytest
+
+import armlab
+from armlab.control.base import ProtocolError
+from armlab.control.joint_space import JointInverseDynamics, JointPDGravity
+from armlab.references import Constant, ViaPoints
+from armlab.simulation import simulate
+
+PRP = armlab.load_robot("prp")
+TARGET = np.array([0.15, np.pi / 6, 0.1])
+KP, KD = [25, 0.5, 10], [10, 0.08, 3]
+
+
+def test_perfect_model_inverse_dynamics_follows_the_designed_second_order_system():
+    # (C3) with ω_n = 5, ζ = 1 from rest at q0: q̃(t) = q̃0 (1 + ω t) e^{−ω t}.
+    omega = 5.0
+    controller = JointInverseDynamics.from_poles(PRP, Constant(TARGET), omega, 1.0)
+    result = simulate(PRP, controller, q0=[0, 0, 0], t_final=2.0, dt=1e-3)
+    t = result.t[:, None]
+    expected = TARGET * (1 + omega * t) * np.exp(-omega * t)
+    np.testing.assert_allclose(result.signals["q_err"], expected, atol=1e-9)
+
+
+def test_underdamped_design_overshoots_as_designed():
+    omega, zeta = 8.0, 0.3
+    controller = JointInverseDynamics.from_poles(PRP, Constant(TARGET), omega, zeta)
+    result = simulate(PRP, controller, q0=[0, 0, 0], t_final=2.0, dt=1e-3)
+    wd = omega * np.sqrt(1 - zeta**2)
+    t = result.t[:, None]
+    expected = TARGET * np.exp(-zeta * omega * t) * (np.cos(wd * t) + zeta * omega / wd * np.sin(wd * t))
+    np.testing.assert_allclose(result.signals["q_err"], expected, atol=1e-8)
+
+
+def test_wrong_link4_mass_leaves_steady_state_error_on_joints_2_and_3_only():
+    model = PRP.with_link_mass("link4", 0.16)
+    reference = ViaPoints([1, 2, 5, 6], [[0, 0, 0], [0.1, np.pi / 3, 0.05], [0.1, np.pi / 3, 0.05], TARGET])
+    perfect = simulate(PRP, JointInverseDynamics(PRP, reference, 25.0, 10.0), q0=[0, 0, 0],
+                       t_final=10.0, dt=2e-3)
+    wrong = simulate(PRP, JointInverseDynamics(model, reference, 25.0, 10.0), q0=[0, 0, 0],
+                     t_final=10.0, dt=2e-3)
+    assert np.abs(perfect.signals["q_err"]).max() < 1e-8
+    final = np.abs(wrong.signals["q_err"][-1])
+    assert final[0] < 1e-9 and final[1] > 1e-3 and final[2] > 1e-3
+    # Steady state of a regulation (q̈ = q̇ = 0 in (C2)): B̂ K_P q̃ + ĝ(q) = g(q), so
+    # K_P q̃ = B̂⁻¹ (g − ĝ) — checked with the armlab.dynamics front end, not the controller.
+    regulation = simulate(PRP, JointInverseDynamics(model, Constant(TARGET), 25.0, 10.0), q0=[0, 0, 0],
+                          t_final=20.0, dt=2e-3)
+    q_end = regulation.q[-1]
+    residual = armlab.gravity_torque(PRP, q_end) - armlab.gravity_torque(model, q_end)
+    np.testing.assert_allclose(25.0 * regulation.signals["q_err"][-1],
+                               np.linalg.solve(armlab.inertia_matrix(model, q_end), residual), atol=1e-8)
+
+
+def test_pd_without_compensation_settles_where_kp_error_balances_gravity():
+    runs = {mode: simulate(PRP, JointPDGravity(PRP, Constant(TARGET), KP, KD, mode), q0=[0, 0, 0],
+                           t_final=15.0, dt=1e-3) for mode in ("online", "none", "desired")}
+    np.testing.assert_allclose(runs["online"].signals["q_err"][-1], 0, atol=1e-6)
+    np.testing.assert_allclose(runs["desired"].signals["q_err"][-1], 0, atol=1e-6)
+    error = runs["none"].signals["q_err"][-1]
+    assert abs(error[0]) < 1e-9 and abs(error[1]) > 1e-2 and abs(error[2]) > 1e-2
+    # Equilibrium of (C1) with ĝ = 0: K_P q̃ = g(q).
+    np.testing.assert_allclose(np.array(KP) * error, armlab.gravity_torque(PRP, runs["none"].q[-1]), atol=1e-6)
+
+
+def test_desired_compensation_has_a_worse_transient_than_online():
+    online = simulate(PRP, JointPDGravity(PRP, Constant(TARGET), KP, KD, "online"), q0=[0, 0, 0],
+                      t_final=3.0, dt=1e-3)
+    desired = simulate(PRP, JointPDGravity(PRP, Constant(TARGET), KP, KD, "desired"), q0=[0, 0, 0],
+                       t_final=3.0, dt=1e-3)
+    iae = [np.abs(r.signals["q_err"][:, 2]).sum() for r in (online, desired)]
+    assert iae[1] > iae[0]
+
+
+def test_high_gain_saturation_slows_joint_1_only():
+    controller = JointInverseDynamics.from_poles(PRP, Constant(TARGET), 30.0, 1.0)
+    free = simulate(PRP, controller, q0=[0, 0, 0], t_final=2.0, dt=1e-3)
+    clipped = simulate(PRP, controller, q0=[0, 0, 0], t_final=2.0, dt=1e-3, torque_limit=20.0)
+    peak = np.abs(free.tau).max(axis=0)
+    assert peak[0] > 100 and peak[1] < 20
+    assert np.abs(clipped.tau).max() <= 20.0
+    assert np.any(np.abs(clipped.tau[:, 0]) == 20.0)
+    # Joint 1 reaches 95 % of its step later when clipped.
+    def rise(result):
+        return result.t[np.argmax(result.q[:, 0] >= 0.95 * TARGET[0])]
+    assert rise(clipped) > rise(free) + 0.02
+    np.testing.assert_allclose(clipped.signals["q_err"][-1], 0, atol=1e-6)
+
+
+def test_gains_must_be_symmetric_positive_semidefinite():
+    with pytest.raises(ProtocolError, match="kp"):
+        JointPDGravity(PRP, Constant(TARGET), [1, -1, 1], 1.0)
+    with pytest.raises(ProtocolError, match="compensation"):
+        JointPDGravity(PRP, Constant(TARGET), 1.0, 1.0, "sometimes")
+    with pytest.raises(ProtocolError, match="reference"):
+        JointInverseDynamics(PRP, Constant([0, 0]), 1.0, 1.0)
