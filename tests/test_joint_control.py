@@ -62,7 +62,8 @@ def test_pd_without_compensation_settles_where_kp_error_balances_gravity():
     error = runs["none"].signals["q_err"][-1]
     assert abs(error[0]) < 1e-9 and abs(error[1]) > 1e-2 and abs(error[2]) > 1e-2
     # Equilibrium of (C1) with ĝ = 0: K_P q̃ = g(q).
-    np.testing.assert_allclose(np.array(KP) * error, armlab.gravity_torque(PRP, runs["none"].q[-1]), atol=1e-6)
+    gravity = armlab.gravity_torque(PRP, runs["none"].q[-1])
+    np.testing.assert_allclose(np.array(KP) * error, gravity, atol=1e-6)
 
 
 def test_desired_compensation_has_a_worse_transient_than_online():

@@ -110,8 +110,9 @@ def test_divergence_stops_the_run_keeps_the_data_and_says_what_and_when():
 
 def test_same_run_twice_is_bit_identical():
     controller = pd(PRP, [25, 0.5, 10], [10, 0.08, 3], [0.1, 1.0, 0.05], "desired")
-    first = simulate(PRP, controller, q0=[0, 0, 0], t_final=0.5, dt=1e-3, disturbance=SinusoidalTorque(0.1, 2.0))
-    second = simulate(PRP, controller, q0=[0, 0, 0], t_final=0.5, dt=1e-3, disturbance=SinusoidalTorque(0.1, 2.0))
+    kwargs = dict(q0=[0, 0, 0], t_final=0.5, dt=1e-3, disturbance=SinusoidalTorque(0.1, 2.0))
+    first = simulate(PRP, controller, **kwargs)
+    second = simulate(PRP, controller, **kwargs)
     for name, array in first.groups().items():
         assert array.tobytes() == second.groups()[name].tobytes(), name
 
