@@ -112,3 +112,62 @@ def test_path_check_flags_a_segment_through_the_prp_singular_axis():
     crossing = PoseReference([0, 5], [[0.05, -0.15, 0.5], [-0.05, 0.15, 0.5]], [R0, R0])
     _, sigma = path_singular_values(robot, crossing, [0.1, -0.3, 0.04], samples=61)
     assert sigma.min() < 1e-3
+
+
+# ------------------------------------------------------------------ A9, A10 closed loops
+
+SEED_ANGLES = [np.pi / 2, -np.pi / 2, 0.0]      # x0's ZYZ angles, negative branch (ϑ = −π/2)
+
+
+def test_operational_pd_with_the_full_6d_task_regulates_to_the_goal():
+    """A9: τ = g + J_Aᵀ(K_P x̃ − K_D J_A q̇) on all six ZYZ components (no inverse needed, so the
+    PRP can take the seed's 6-D x); the consistent goal pose is reached, the error vanishes."""
+    from armlab.control.task_space import OperationalPD
+    from armlab.simulation import simulate
+
+    robot = load_robot("prp")
+    goal = PoseReference.from_pose_vectors([0.0], [[0.0, -0.1, 0.4, *SEED_ANGLES]])
+    controller = OperationalPD(robot, goal, kp=[100, 100, 100, 10, 10, 10], kd=[30, 30, 30, 3, 3, 3],
+                               task=(0, 1, 2, 3, 4, 5), angle_reference=SEED_ANGLES)
+    result = simulate(robot, controller, q0=[0.1, 0.0, 0.0], t_final=6.0, dt=1e-3)
+    np.testing.assert_allclose(result.q[-1], [0.0, 0.0, 0.1], atol=1e-6)
+    np.testing.assert_allclose(result.signals["x_e"][-1], [0.0, -0.1, 0.4, *SEED_ANGLES], atol=1e-6)
+    assert np.abs(result.signals["x_err"][0]).max() == pytest.approx(0.1)
+    assert controller.check(result) == []
+
+
+def test_operational_inverse_dynamics_error_follows_the_designed_second_order_system():
+    """A10 with the exact model: x̃̈ + K_D x̃̇ + K_P x̃ = 0, so from an initial offset (and a
+    reference at rest at t = 0) each component is (x̃₀ + 5 x̃₀ t) e^{−5t} for K_P = 25, K_D = 10,
+    while the reference moves through the seed's goals."""
+    from armlab.control.task_space import OperationalInverseDynamics
+    from armlab.simulation import simulate
+
+    robot = load_robot("prp")
+    R0 = euler_matrix(SEED_ANGLES, "zyz")
+    reference = PoseReference([0.0, 2.0, 3.0, 5.0], [[0, -0.2, 0.5], [0, -0.1, 0.5], [0, -0.1, 0.5],
+                                                     [0, -0.1, 0.4]], [R0] * 4)
+    controller = OperationalInverseDynamics(robot, reference, kp=25.0, kd=10.0,
+                                            angle_reference=SEED_ANGLES)
+    result = simulate(robot, controller, q0=[0.12, 0.05, -0.02], t_final=6.0, dt=1e-3)
+    t = result.t[:, None]
+    x_err = result.signals["x_err"][:, :3]
+    expected = (x_err[0] + 5.0 * x_err[0] * t) * np.exp(-5.0 * t)
+    np.testing.assert_allclose(x_err, expected, atol=1e-7)
+    assert np.abs(x_err[0]).min() > 0.005
+
+
+def test_near_singular_goal_is_logged_and_warned():
+    """The seed's 'almost singular goal': the PRP's tip near the z_0 axis (radius 1 cm) makes
+    σ_min(J_P) = radius; the run logs it (and the seed's det J_P) and check() warns."""
+    from armlab.control.task_space import OperationalPD, SingularityWarning
+    from armlab.simulation import simulate
+
+    robot = load_robot("prp")
+    goal = PoseReference.from_pose_vectors([0.0], [[0.0, -0.01, 0.4, *SEED_ANGLES]])
+    controller = OperationalPD(robot, goal, kp=100.0, kd=30.0, angle_reference=SEED_ANGLES)
+    result = simulate(robot, controller, q0=[0.1, 0.0, 0.0], t_final=4.0, dt=1e-3)
+    assert result.signals["sigma"][-1, -1] == pytest.approx(0.01, abs=1e-4)
+    assert abs(result.signals["det_JP"][-1, 0]) == pytest.approx(0.01, abs=1e-4)
+    with pytest.warns(SingularityWarning, match="near singular"):
+        controller.check(result)
