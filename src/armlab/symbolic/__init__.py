@@ -13,13 +13,14 @@ LaTeX and compiled code.
 """
 
 from armlab.symbolic.codegen import ClosedFormKernels, closed_form_kernels
+from armlab.symbolic.compact import CompactDynamics, compact_dynamics
 from armlab.symbolic.model import SymbolicJoint, SymbolicLink, SymbolicRobot, symbolic_robot
 from armlab.symbolic.render import render, to_latex, to_mathml, to_text
 from armlab.symbolic.sections import ASSIGNMENTS, Item, Section, derive
 from armlab.symbolic.simplify import compact, count_ops
 
 __all__ = [
-    "ASSIGNMENTS", "ClosedFormKernels", "Item", "Section", "SymbolicJoint", "SymbolicLink",
-    "SymbolicRobot", "closed_form_kernels", "compact", "count_ops", "derive", "render",
+    "ASSIGNMENTS", "ClosedFormKernels", "CompactDynamics", "Item", "Section", "SymbolicJoint", "SymbolicLink",
+    "SymbolicRobot", "closed_form_kernels", "compact", "compact_dynamics", "count_ops", "derive", "render",
     "symbolic_robot", "to_latex", "to_mathml", "to_text",
 ]

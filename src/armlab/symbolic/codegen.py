@@ -112,7 +112,12 @@ def closed_form_kernels(robot: Robot | SymbolicRobot, *, B=None, C=None, g=None)
     B, C, g default to the Lagrange derivation of A2–A3; pass other forms (e.g. the compact
     Newton–Euler ones of :func:`armlab.symbolic.compact.compact_dynamics`) for large robots.
     """
-    sr = robot if isinstance(robot, SymbolicRobot) else symbolic_robot(robot, numeric=True)
+    given = any(M is not None for M in (B, C, g))
+    if isinstance(robot, SymbolicRobot):
+        sr = robot
+    else:
+        # Given forms carry the robot file's symbols, whose values the symbolic twin knows.
+        sr = symbolic_robot(robot, numeric=not given)
     values = sr.numeric_substitution()
     q, qd = list(sr.q), list(sr.qd)
     n = sr.n

@@ -1,0 +1,177 @@
+"""Symbolic modelling at scale: time and operation counts of B, C, g.
+
+* PUMA 560 (six joints, Armstrong–Khatib–Burdick parameters, lengths a2, a3, d3, d4 and gear
+  ratios as symbols): B, C, g by Newton–Euler over a polynomial ring (``compact_dynamics``),
+  target ≤ 60 s; operation counts of the expanded forms and with shared subexpressions;
+  checked against the numeric kernels at random states.
+* The naive route for comparison, on a budget: Christoffel symbols of the B obtained from
+  partial Jacobians without simplification, on the PUMA's first three joints (its six-joint
+  version runs to millions of operations).
+* The PRP's whole A1–A5 chain as ``armlab derive prp`` prints it.
+* The compiled closed form against the numeric kernels (same signatures): time per call.
+
+Run: ``python benchmarks/bench_symbolic.py`` (or through the bench runner, which calls
+:func:`main`).  Timings on a shared machine are noisy; ratios are measured side by side.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+import sympy as sp
+
+
+def _seconds(f, *args, repeat=1):
+    start = time.perf_counter()
+    for _ in range(repeat):
+        value = f(*args)
+    return (time.perf_counter() - start) / repeat, value
+
+
+def _loop(calls):
+    """Compiled loops calling a kernel ``calls`` times, so no interpreter overhead is timed."""
+    from numba import njit
+
+    # q changes every call so the compiler cannot hoist the work out of the loop.
+    @njit
+    def one_vector(kernel, m, ws, q, out):
+        for k in range(calls):
+            q[k % q.shape[0]] += 1e-9
+            kernel(m, ws, q, out)
+
+    @njit
+    def two_vectors(kernel, m, ws, q, qd, out):
+        for k in range(calls):
+            q[k % q.shape[0]] += 1e-9
+            kernel(m, ws, q, qd, out)
+
+    return one_vector, two_vectors
+
+
+def _per_call(kernel, args, calls=20000):
+    one_vector, two_vectors = _LOOPS.setdefault(calls, _loop(calls))
+    loop = one_vector if len(args) == 4 else two_vectors
+    loop(kernel, *args)  # compile
+    start = time.perf_counter()
+    loop(kernel, *args)
+    return (time.perf_counter() - start) / calls
+
+
+_LOOPS: dict = {}
+
+
+def puma_compact():
+    import armlab
+    from armlab.symbolic import compact_dynamics
+    from armlab.symbolic.model import symbolic_robot
+
+    robot = armlab.load_robot("puma560")
+    sr = symbolic_robot(robot)
+    seconds, result = _seconds(compact_dynamics, sr)
+    values = sr.numeric_substitution()
+    B = sp.lambdify([list(sr.q)], result.B.xreplace(values))
+    C = sp.lambdify([list(sr.q), list(sr.qd)], result.C.xreplace(values))
+    g = sp.lambdify([list(sr.q)], result.g.xreplace(values))
+    rng = np.random.default_rng(0)
+    error = 0.0
+    for _ in range(5):
+        q, qd = rng.uniform(-np.pi, np.pi, size=(2, 6))
+        error = max(error, np.abs(B(q) - armlab.inertia_matrix(robot, q)).max(),
+                    np.abs(C(q, qd) - armlab.coriolis_matrix(robot, q, qd)).max(),
+                    np.abs(g(q).ravel() - armlab.gravity_torque(robot, q)).max())
+    return {"puma560 B, C, g [s]": seconds, "puma560 ops B": result.ops["B"],
+            "puma560 ops C": result.ops["C"], "puma560 ops g": result.ops["g"],
+            "puma560 ops with CSE": result.ops_cse,
+            "puma560 max |closed form − kernels|": error}, (robot, result)
+
+
+def naive_christoffel_three_joints():
+    """Partial-Jacobian B without simplification and its Christoffel C, PUMA joints 1–3."""
+    import armlab
+    from armlab.model.robot import Robot
+    from armlab.symbolic.model import symbolic_robot
+    from armlab.symbolic.simplify import count_ops
+
+    puma = armlab.load_robot("puma560")
+    arm = Robot(name="puma_arm", joints=puma.joints[:3], links=puma.links[:3], gravity=puma.gravity)
+    sr = symbolic_robot(arm)
+    start = time.perf_counter()
+    T = sp.eye(4)
+    B = sp.zeros(3, 3)
+    axes = []
+    for joint, link in zip(sr.joints, sr.links, strict=True):
+        axes.append(((T * joint.before)[:3, 2], (T * joint.before)[:3, 3]))
+        T = T * joint.transform()
+        p_c = (T * link.com.col_join(sp.Matrix([1])))[:3, 0]
+        J_P = p_c.jacobian(sr.q)
+        J_O = sp.Matrix.hstack(*[axes[k][0] if k < len(axes) else sp.zeros(3, 1) for k in range(3)])
+        R = T[:3, :3]
+        B += link.mass * J_P.T * J_P + J_O.T * R * link.inertia * R.T * J_O
+    q, qd = list(sr.q), list(sr.qd)
+    C = sp.Matrix(3, 3, lambda i, j: sum((sp.diff(B[i, j], q[k]) + sp.diff(B[i, k], q[j])
+                                          - sp.diff(B[j, k], q[i])) * qd[k] / 2 for k in range(3)))
+    seconds = time.perf_counter() - start
+    return {"naive 3-joint B, C [s]": seconds, "naive 3-joint ops B": count_ops(B),
+            "naive 3-joint ops C": count_ops(C)}
+
+
+def prp_chain():
+    import armlab
+    from armlab.symbolic import derive
+    from armlab.symbolic.simplify import count_ops
+
+    robot = armlab.load_robot("prp")
+    seconds, sections = _seconds(derive, robot)
+    a3 = {s.key: s for s in sections}["A3"]
+    items = dict(a3.pairs())
+    B = {s.key: s for s in sections}["A2"]
+    return {"prp derive A1–A5 [s]": seconds,
+            "prp ops B": count_ops(dict(B.pairs())["B(q)"]),
+            "prp ops C": count_ops(items["C(q, q̇)"]), "prp ops g": count_ops(items["g(q)"])}
+
+
+def compiled_vs_kernels(robot, result=None):
+    from armlab.kernels import dynamics as numeric
+    from armlab.symbolic import closed_form_kernels
+
+    start = time.perf_counter()
+    closed = (closed_form_kernels(robot, B=result.B, C=result.C, g=result.g) if result is not None
+              else closed_form_kernels(robot))
+    m, n = robot.arrays, robot.n
+    ws = numeric.make_workspace(n)
+    q, qd = np.full(n, 0.3), np.full(n, 0.2)
+    B, C, g = np.empty((n, n)), np.empty((n, n)), np.empty(n)
+    closed.mass_matrix_into(m, ws, q, B)
+    closed.coriolis_matrix_into(m, ws, q, qd, C)
+    closed.gravity_into(m, ws, q, g)
+    generation = time.perf_counter() - start
+    out = {f"{robot.name} code generation + compilation [s]": generation}
+    for name, args, buffer in (("mass_matrix_into", (q,), B), ("coriolis_matrix_into", (q, qd), C),
+                               ("gravity_into", (q,), g)):
+        t_closed = _per_call(getattr(closed, name), (m, ws, *args, buffer))
+        t_numeric = _per_call(getattr(numeric, name), (m, ws, *args, buffer))
+        out[f"{robot.name} {name} closed form [µs]"] = t_closed * 1e6
+        out[f"{robot.name} {name} numeric kernel [µs]"] = t_numeric * 1e6
+    return out
+
+
+def main() -> dict:
+    import armlab
+
+    results = {}
+    results.update(prp_chain())
+    puma, (robot, compact) = puma_compact()
+    results.update(puma)
+    results.update(naive_christoffel_three_joints())
+    results.update(compiled_vs_kernels(armlab.load_robot("prp")))
+    results.update(compiled_vs_kernels(robot, compact))
+    width = max(map(len, results))
+    for key, value in results.items():
+        shown = f"{value:.3g}" if isinstance(value, float) else str(value)
+        print(f"{key:<{width}}  {shown}")
+    return results
+
+
+if __name__ == "__main__":
+    main()
