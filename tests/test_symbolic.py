@@ -292,3 +292,18 @@ def test_prp_operational_space_model():
     J_dot = (J_plus - J_minus) / (2 * h)
     expected = J_inv.T @ armlab.coriolis_matrix(r, q, qd) @ qd - J_inv.T @ B @ J_inv @ J_dot @ qd
     np.testing.assert_allclose(Cx(q, qd).ravel(), expected, rtol=1e-6, atol=1e-8)
+
+
+# --------------------------------------------------------------------------- the scalable route
+
+
+@pytest.mark.parametrize("name", ["prp_actuated", "planar2r", "generic"])
+def test_compact_dynamics_equal_the_lagrange_forms(name):
+    from armlab.symbolic.compact import compact_dynamics
+
+    sr = sym(name)
+    result = compact_dynamics(sr)
+    angles = kinematics.angles(sr)
+    assert is_zero(result.B - energy.inertia_matrix(sr), angles)
+    assert is_zero(result.C - lagrange.coriolis_matrix(sr), angles)
+    assert is_zero(result.g - lagrange.gravity_vector(sr), angles)
