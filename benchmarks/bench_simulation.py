@@ -1,0 +1,288 @@
+"""Closed-loop simulation speed: armlab vs a Python loop over Pinocchio vs a hand-written numba
+loop with the PRP's closed-form dynamics, side by side in one run.
+
+* **A7 PRP scenario** (``a7_id_via_points``: computed torque, three-step quintic reference,
+  10 s at 1 kHz, RK4): ``armlab.simulate`` (the whole loop compiled); the same RK4 loop in
+  Python calling ``pinocchio.rnea`` (controller) and ``pinocchio.aba`` (plant); and a numba loop
+  written by hand with B, C, g of ``docs/prp-dynamics.md`` (P1–P3) — the practical limit.
+* **Puma560**: the same controller and loop on the 6-DoF arm (armlab vs Pinocchio).
+* **Gain sweep**: 1000 runs of the A7 scenario (shortened to 1 s) with different gains,
+  ``simulate_batch`` on all cores (threads: the compiled loop releases the GIL) vs one core.
+* **Compile time and time to first result**: a fresh process running the A7 scenario, with
+  an empty loop cache (compiles) and again with the cache filled.
+
+Single-run times are the best of several repeats of thread CPU time (less sensitive to other
+processes on a shared machine); the sweep uses wall time.  Targets (issue): armlab ≤ 3× the
+hand-written loop and ≥ 100× faster than the Pinocchio loop for the PRP, ≥ 20× for the Puma.
+
+Run: ``python benchmarks/bench_simulation.py`` or ``make bench``.
+"""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+from numba import njit
+
+import armlab
+from armlab.control.joint_space import JointInverseDynamics
+from armlab.references import ViaPoints
+from armlab.scenarios import load_scenario
+from armlab.simulation import simulate, simulate_batch
+
+HERE = Path(__file__).resolve().parent
+T_FINAL, DT = 10.0, 1e-3
+
+
+def best_cpu(function, repeats=5):
+    """Best thread CPU time of ``function()`` over ``repeats`` calls [s] and its last value."""
+    best, value = np.inf, None
+    for _ in range(repeats):
+        start = time.thread_time()
+        value = function()
+        best = min(best, time.thread_time() - start)
+    return best, value
+
+
+def quintic(t, times, values):
+    """The (R2) via-point reference in plain Python (for the Pinocchio loop)."""
+    if t <= times[0]:
+        return values[0], 0.0 * values[0], 0.0 * values[0]
+    if t >= times[-1]:
+        return values[-1], 0.0 * values[0], 0.0 * values[0]
+    j = np.searchsorted(times, t, side="right") - 1
+    span = times[j + 1] - times[j]
+    u = (t - times[j]) / span
+    s = 10 * u**3 - 15 * u**4 + 6 * u**5
+    sd = (30 * u**2 - 60 * u**3 + 30 * u**4) / span
+    sdd = (60 * u - 180 * u**2 + 120 * u**3) / span**2
+    delta = values[j + 1] - values[j]
+    return values[j] + delta * s, delta * sd, delta * sdd
+
+
+def pinocchio_loop(robot, times, values, kp, kd, q0):
+    """RK4 closed loop in Python: τ = rnea(q, q̇, y) (computed torque), q̈ = aba(q, q̇, τ)."""
+    import pinocchio as pin
+
+    sys.path.insert(0, str(HERE.parent / "tests"))
+    from pinocchio_model import pinocchio_model
+
+    model, data = pinocchio_model(robot)
+    n = robot.n
+    if model.nq != n or model.nv != n:
+        raise RuntimeError("the Pinocchio loop assumes nq = nv = n")
+
+    def f(t, x):
+        q, qd = x[:n], x[n:]
+        q_des, qd_des, qdd_des = quintic(t, times, values)
+        y = qdd_des + kd * (qd_des - qd) + kp * (q_des - q)
+        tau = pin.rnea(model, data, q, qd, y)
+        return np.concatenate([qd, pin.aba(model, data, q, qd, tau)])
+
+    def run():
+        x = np.concatenate([q0, np.zeros(n)])
+        steps = int(round(T_FINAL / DT))
+        out = np.empty((steps + 1, n))
+        out[0] = x[:n]
+        for j in range(steps):
+            t = j * DT
+            k1 = f(t, x)
+            k2 = f(t + DT / 2, x + DT / 2 * k1)
+            k3 = f(t + DT / 2, x + DT / 2 * k2)
+            k4 = f(t + DT, x + DT * k3)
+            x = x + DT / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+            out[j + 1] = x[:n]
+        return out
+
+    return run
+
+
+@njit(cache=True)
+def _quintic_scalar(t, times, values, i):
+    """(R2) for joint i, without allocation: (q_des, q̇_des, q̈_des)."""
+    count = times.shape[0]
+    if t <= times[0]:
+        return values[0, i], 0.0, 0.0
+    if t >= times[count - 1]:
+        return values[count - 1, i], 0.0, 0.0
+    j = 0
+    while t >= times[j + 1]:
+        j += 1
+    span = times[j + 1] - times[j]
+    u = (t - times[j]) / span
+    delta = values[j + 1, i] - values[j, i]
+    return (values[j, i] + delta * u * u * u * (10.0 - 15.0 * u + 6.0 * u * u),
+            delta * u * u * (30.0 - 60.0 * u + 30.0 * u * u) / span,
+            delta * u * (60.0 - 180.0 * u + 120.0 * u * u) / (span * span))
+
+
+@njit(cache=True)
+def _prp_rhs(t, x, P, times, values, kp, kd, xdot):
+    """Closed-form PRP (P1–P3) under computed torque; P = [M1, b22_0, m4, g]."""
+    M1, b0, m4, g = P[0], P[1], P[2], P[3]
+    d1, th, d3, v1, v2, v3 = x[0], x[1], x[2], x[3], x[4], x[5]
+    r1, w1, a1 = _quintic_scalar(t, times, values, 0)
+    r2, w2, a2 = _quintic_scalar(t, times, values, 1)
+    r3, w3, a3 = _quintic_scalar(t, times, values, 2)
+    c2, s2 = np.cos(th), np.sin(th)
+    B1, B2, B3 = M1, b0 + m4 * d3 * d3, m4
+    n2 = 2.0 * m4 * d3 * v3 * v2 - m4 * g * d3 * s2
+    n3 = -m4 * d3 * v2 * v2 + m4 * g * c2
+    y1 = a1 + kd * (w1 - v1) + kp * (r1 - d1)
+    y2 = a2 + kd * (w2 - v2) + kp * (r2 - th)
+    y3 = a3 + kd * (w3 - v3) + kp * (r3 - d3)
+    tau1, tau2, tau3 = B1 * y1, B2 * y2 + n2, B3 * y3 + n3
+    xdot[0], xdot[1], xdot[2] = v1, v2, v3
+    xdot[3] = tau1 / B1
+    xdot[4] = (tau2 - n2) / B2
+    xdot[5] = (tau3 - n3) / B3
+
+
+@njit(cache=True)
+def prp_hand_loop(P, times, values, kp, kd, q0, steps, dt):
+    x = np.zeros(6)
+    x[:3] = q0
+    out = np.empty((steps + 1, 3))
+    out[0] = q0
+    k1, k2, k3, k4, xt = np.empty(6), np.empty(6), np.empty(6), np.empty(6), np.empty(6)
+    for j in range(steps):
+        t = j * dt
+        _prp_rhs(t, x, P, times, values, kp, kd, k1)
+        for i in range(6):
+            xt[i] = x[i] + 0.5 * dt * k1[i]
+        _prp_rhs(t + 0.5 * dt, xt, P, times, values, kp, kd, k2)
+        for i in range(6):
+            xt[i] = x[i] + 0.5 * dt * k2[i]
+        _prp_rhs(t + 0.5 * dt, xt, P, times, values, kp, kd, k3)
+        for i in range(6):
+            xt[i] = x[i] + dt * k3[i]
+        _prp_rhs(t + dt, xt, P, times, values, kp, kd, k4)
+        for i in range(6):
+            x[i] += dt / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
+        out[j + 1] = x[:3]
+    return out
+
+
+def compare(name, robot, controller, times, values, kp, kd, q0, hand=None):
+    steps = int(round(T_FINAL / DT))
+    simulate(robot, controller, q0=q0, t_final=0.01, dt=DT)            # load/compile once
+    t_armlab, result = best_cpu(lambda: simulate(robot, controller, q0=q0, t_final=T_FINAL, dt=DT))
+    run_pin = pinocchio_loop(robot, times, values, kp, kd, q0)
+    t_pin, q_pin = best_cpu(run_pin, repeats=1)
+    rows = [("armlab.simulate (compiled RK4 loop)", t_armlab, result.q),
+            ("Python RK4 loop over pinocchio.rnea/aba", t_pin, q_pin)]
+    if hand is not None:
+        hand(steps)                                                     # compile/load once
+        t_hand, q_hand = best_cpu(lambda: hand(steps))
+        rows.append(("hand-written numba loop, closed-form B, C, g", t_hand, q_hand))
+    print(f"\n{name}: computed torque, via points, {T_FINAL:g} s at {1 / DT:g} Hz, RK4 "
+          f"({steps} steps, {4 * steps} dynamics evaluations)")
+    print(f"  {'implementation':48s} {'time':>10s} {'armlab ÷ it':>12s} {'max |q − q_armlab|':>20s}")
+    for label, seconds, q in rows:
+        print(f"  {label:48s} {seconds * 1e3:8.2f} ms {t_armlab / seconds:12.3g} "
+              f"{np.abs(q - result.q).max():20.2e}")
+    return {label: seconds for label, seconds, _ in rows}
+
+
+def prp_case():
+    scenario = load_scenario("a7_id_via_points")
+    robot, controller = scenario.plant, scenario.controller
+    reference = controller.reference
+    times, values = np.asarray(reference.times, float), np.asarray(reference.values, float)
+    kp, kd = float(controller.kp[0, 0]), float(controller.kd[0, 0])
+    p = robot.parameters
+    m2, m3, m4 = p["m_Link2"], p["m_Link3"], p["m_Link4"]
+    P = np.array([m2 + m3 + m4, 0.5 * m3 * p["a3"] ** 2 + m4 * (p["b4"] ** 2 + p["L4"] ** 2) / 12, m4,
+                  9.81])
+    q0 = np.zeros(3)
+
+    def hand(steps):
+        return prp_hand_loop(P, times, values, kp, kd, q0, steps, DT)
+
+    times_ = compare("PRP (seed A7 scenario a7_id_via_points)", robot, controller, times, values, kp, kd,
+                     q0, hand)
+    armlab_t = times_["armlab.simulate (compiled RK4 loop)"]
+    pin_t = times_["Python RK4 loop over pinocchio.rnea/aba"]
+    hand_t = times_["hand-written numba loop, closed-form B, C, g"]
+    print(f"  targets: armlab ≤ 3× hand-written: {armlab_t / hand_t:.2f}× "
+          f"({'met' if armlab_t <= 3 * hand_t else 'NOT met'}); ≥ 100× faster than Pinocchio loop: "
+          f"{pin_t / armlab_t:.0f}× ({'met' if pin_t >= 100 * armlab_t else 'NOT met'})")
+    return scenario
+
+
+def puma_case():
+    if "puma560" not in armlab.bundled_robot_names():
+        print("\npuma560: no robot file, skipped")
+        return
+    robot = armlab.load_robot("puma560")
+    n = robot.n
+    arrays = robot.arrays
+    if np.any(arrays.rotor_inertia != 0) or np.any(arrays.viscous != 0) or np.any(arrays.coulomb != 0):
+        # Pinocchio has no motor or friction model: compare the same rigid-body robot.
+        joints = tuple(replace(j, motor=replace(j.motor, rotor_inertia=0.0),
+                               friction=replace(j.friction, viscous=0.0, coulomb=0.0)) for j in robot.joints)
+        robot = robot.replace(joints=joints)
+    q0 = np.zeros(n)
+    times = np.array([1.0, 2.0, 5.0, 6.0])
+    goal = np.array([0.5, -0.4, 0.3, 0.2, -0.3, 0.4])[:n]
+    values = np.stack([q0, goal, goal, 0.5 * goal])
+    kp, kd = 25.0, 10.0
+    controller = JointInverseDynamics(robot, ViaPoints(times, values), kp, kd)
+    t = compare("Puma560 (same controller, 6 joints)", robot, controller, times, values, kp, kd, q0)
+    ratio = t["Python RK4 loop over pinocchio.rnea/aba"] / t["armlab.simulate (compiled RK4 loop)"]
+    verdict = "met" if ratio >= 20 else "NOT met"
+    print(f"  target: ≥ 20× faster than the Pinocchio loop: {ratio:.0f}× ({verdict})")
+
+
+def sweep_case(scenario, runs=1000, t_final=1.0):
+    base = scenario.controller
+    gains = np.linspace(4.0, 12.0, runs)
+    controllers = [replace(base, kp=np.eye(3) * w**2, kd=np.eye(3) * 2 * w) for w in gains]
+    kwargs = dict(q0=np.zeros(3), t_final=t_final, dt=DT, log_every=100)
+    simulate_batch(scenario.plant, controllers[:2], **kwargs)              # load once
+    start = time.perf_counter()
+    one = simulate_batch(scenario.plant, controllers[:200], workers=1, **kwargs)
+    single = (time.perf_counter() - start) * runs / 200
+    start = time.perf_counter()
+    results = simulate_batch(scenario.plant, controllers, **kwargs)
+    parallel = time.perf_counter() - start
+    same = all(np.array_equal(a.q, b.q) for a, b in zip(one, results[:200], strict=True))
+    print(f"\nGain sweep: {runs} runs of a7_id_via_points shortened to {t_final:g} s (ω_n = 4 … 12 rad/s)")
+    print(f"  one thread (extrapolated from 200 runs): {single:7.2f} s wall")
+    print(f"  simulate_batch, {os.cpu_count()} threads:          {parallel:7.2f} s wall "
+          f"(speed-up {single / parallel:.2f}×; results identical to one thread: {same})")
+
+
+def fresh_process_case():
+    code = ("import time; t0 = time.perf_counter(); import armlab; "
+            "from armlab.scenarios import load_scenario; t1 = time.perf_counter(); "
+            "r = load_scenario('a7_id_via_points').run(); t2 = time.perf_counter(); "
+            "print(f'{t1 - t0:.3f} {t2 - t1:.3f}')")
+    print("\nFresh process: import armlab, then the A7 scenario (10 s at 1 kHz)")
+    with tempfile.TemporaryDirectory() as empty:
+        for label, env in (("empty loop cache (compiles the loop)", {"ARMLAB_CACHE_DIR": empty}),
+                           ("loop cache filled", {"ARMLAB_CACHE_DIR": empty})):
+            start = time.perf_counter()
+            out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                                 env={**os.environ, **env}, check=True).stdout.split()
+            total = time.perf_counter() - start
+            print(f"  {label:40s} import {float(out[0]):6.2f} s, first result {float(out[1]):6.2f} s, "
+                  f"process total {total:6.2f} s")
+
+
+def main():
+    scenario = prp_case()
+    puma_case()
+    sweep_case(scenario)
+    fresh_process_case()
+
+
+if __name__ == "__main__":
+    main()
