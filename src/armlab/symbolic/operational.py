@@ -57,12 +57,36 @@ def task_rows(sr: SymbolicRobot, frame: str = "0") -> list[int]:
 
 
 class OperationalModel(NamedTuple):
+    """(O1) on the task ``rows``: J_A, its inverse and T_A; B_A, C_A ẋ, g_A in full, and the
+    same written with the entries b_ij, (C q̇)_i, g_i of A2–A3 as symbols (``named``: a dict
+    of the compact forms and ``definitions`` {symbol: expression})."""
+
     rows: list
     J_A: sp.Matrix
+    J_inv: sp.Matrix
     T_A: sp.Matrix
     B_A: sp.Matrix
     C_A_xd: sp.Matrix
     g_A: sp.Matrix
+    named: dict
+    definitions: dict
+
+
+def _named(M: sp.Matrix, letter: str, symmetric: bool = False) -> tuple[sp.Matrix, dict]:
+    """M with each non-constant entry replaced by a symbol letter_ij (letter_i for vectors)."""
+    definitions = {}
+
+    def entry(i, j):
+        e = M[i, j]
+        if e.is_number:
+            return e
+        a, b = (min(i, j), max(i, j)) if symmetric else (i, j)
+        name = f"{letter}_{a + 1}{b + 1}" if M.cols > 1 else f"{letter}_{a + 1}"
+        symbol = sp.Symbol(name, real=True)
+        definitions[symbol] = e
+        return symbol
+
+    return sp.Matrix(M.rows, M.cols, entry), definitions
 
 
 @lru_cache(maxsize=32)
@@ -75,10 +99,21 @@ def operational_model(sr: SymbolicRobot, frame: str = "0") -> OperationalModel |
     J_A = J_full.extract(rows, list(range(sr.n)))
     ang = angles(sr)
     J_inv = compact_matrix(J_A.inv(method="LU"), ang, deep=True)
-    B_A = compact_matrix(J_inv.T * inertia_matrix(sr) * J_inv, ang, deep=True)
-    J_dot_qd = time_derivative(J_A, sr) * sr.qd
-    C_A_xd = compact_matrix(J_inv.T * coriolis_matrix(sr) * sr.qd - B_A * J_dot_qd, ang, deep=True)
-    g_A = compact_matrix(J_inv.T * gravity_vector(sr), ang, deep=True)
+    J_dot_qd = compact_matrix(time_derivative(J_A, sr) * sr.qd, ang)
+    B, C_qd, g = inertia_matrix(sr), coriolis_matrix(sr) * sr.qd, gravity_vector(sr)
+    B_n, defs_B = _named(B, "b", symmetric=True)
+    C_n, defs_C = _named(compact_matrix(C_qd, ang), "h")
+    g_n, defs_g = _named(g, "g")
+    # With B, C q̇, g as letters the plain products are already the compact forms: expanding
+    # them (as the normal form does) would multiply out J_A⁻¹'s denominators.
+    named = {"B_A": (J_inv.T * B_n * J_inv).applyfunc(sp.factor_terms)}
+    named["C_A_xd"] = (J_inv.T * C_n - named["B_A"] * J_dot_qd).applyfunc(sp.factor_terms)
+    named["g_A"] = (J_inv.T * g_n).applyfunc(sp.factor_terms)
+    definitions = {**defs_B, **defs_C, **defs_g}
+    B_A = compact_matrix(J_inv.T * B * J_inv, ang, deep=True)
+    C_A_xd = compact_matrix(J_inv.T * C_qd - B_A * J_dot_qd, ang, deep=True)
+    g_A = compact_matrix(J_inv.T * g, ang, deep=True)
     T_full, _ = euler_rate_matrix(phi)
     T_A = T_full.extract(rows, rows)
-    return OperationalModel(rows, J_A, compact_matrix(T_A, ang), B_A, C_A_xd, g_A)
+    return OperationalModel(rows, J_A, J_inv, compact_matrix(T_A, ang), B_A, C_A_xd, g_A, named,
+                            definitions)

@@ -84,14 +84,20 @@ def render(sections: list[Section], fmt: str = "text", *, numeric: bool = False,
         elif fmt == "latex":
             out.append(rf"\subsection*{{{_latex_text(title)}}}")
             for item in section.items:
-                out.append(rf"\[ {item.tex} = {to_latex(item.expr, numeric=numeric)} \]")
+                out.append(rf"\[ {_equation(item, numeric)} \]")
             out.extend(rf"\noindent {_latex_text(note)}\par" for note in section.notes)
         else:
             out.append(f"\n## {title}\n")
             for item in section.items:
-                out.append(f"{item.label}:\n\n$$ {item.tex} = {to_latex(item.expr, numeric=numeric)} $$\n")
+                out.append(f"{item.label}:\n\n$$ {_equation(item, numeric)} $$\n")
             out.extend(f"*{note}*\n" for note in section.notes)
     return "\n".join(out).strip() + "\n"
+
+
+def _equation(item, numeric: bool) -> str:
+    """``label = expr`` in LaTeX; an equation item (IK branch) is shown as it is."""
+    body = to_latex(item.expr, numeric=numeric)
+    return body if isinstance(item.expr, sp.Equality) else f"{item.tex} = {body}"
 
 
 def _latex_text(text: str) -> str:

@@ -89,6 +89,8 @@ def _a1(sr: SymbolicRobot, frame: str) -> Section:
         s.add(label, A, tex)
     for f in ("0", "base") if frame == "base" else ("0",):
         for i, T in enumerate(K.link_transforms(sr, f), start=1):
+            if i == 1 and f == "0":
+                continue  # T_1^0 is the first relative transform above
             label, tex = _T(i, f)
             s.add(label, T, tex.replace("{base}", r"{\mathrm{base}}"))
         if sr.tool != sp.eye(4):
@@ -208,10 +210,15 @@ def _a5(sr: SymbolicRobot, frame: str) -> Section:
     s.notes.append(f"Task coordinates x = ({', '.join(labels)}) in Σ_{frame}: the rows of J_A that "
                    "a robot with this many joints can control.")
     s.add("J_A (task rows)", model.J_A, r"J_A")
+    s.add("J_A⁻¹", model.J_inv, r"J_A^{-1}")
     s.add("T_A (task rows)", model.T_A, r"T_A")
-    s.add("B_A = J_A⁻ᵀ B J_A⁻¹", model.B_A, r"B_A")
-    s.add("C_A ẋ = J_A⁻ᵀ C q̇ − B_A J̇_A q̇", model.C_A_xd, r"C_A \dot x")
-    s.add("g_A = J_A⁻ᵀ g", model.g_A, r"g_A")
+    for symbol, value in model.definitions.items():
+        s.add(str(symbol), value, sp.latex(symbol))
+    s.add("B_A = J_A⁻ᵀ B J_A⁻¹", model.named["B_A"], r"B_A")
+    s.add("C_A ẋ = J_A⁻ᵀ C q̇ − B_A J̇_A q̇", model.named["C_A_xd"], r"C_A \dot x")
+    s.add("g_A = J_A⁻ᵀ g", model.named["g_A"], r"g_A")
+    s.notes.append("b_ij, h_i = (C q̇)_i and g_i are the non-constant entries of B, C q̇ and g "
+                   "(A2, A3); substituting them gives the full expressions.")
     return s
 
 
