@@ -55,18 +55,39 @@ def _elements(text: str) -> _Elements:
     return parser
 
 
-def _registered_scenarios(robot: str) -> list[str]:
-    """Scenario names of ``robot`` straight from the registry (independent of the report)."""
-    from armlab.viz.experiments import registry_names
-
-    return registry_names(robot)
+def _one_per_assignment(experiments):
+    """The first experiment of every assignment: every section, one compiled loop per law."""
+    chosen = {}
+    for exp in experiments:
+        chosen.setdefault(exp.assignment, exp)
+    return list(chosen.values())
 
 
 @pytest.fixture(scope="module")
 def report(tmp_path_factory):
+    """A quick report of the PRP (short runs, one scenario per assignment to keep the suite
+    fast; `armlab report` runs them all)."""
+    import armlab
+    from armlab.viz.experiments import discover
+
     out = tmp_path_factory.mktemp("report")
-    path = build_report("prp", out, quick=True, show_progress=False)
-    return path
+    experiments = _one_per_assignment(discover(armlab.load_robot("prp"), quick=True))
+    path = build_report("prp", out, quick=True, show_progress=False, experiments=experiments)
+    return path, [e.name for e in experiments]
+
+
+def test_every_registered_scenario_of_the_robot_is_discovered():
+    import armlab
+    import armlab.scenarios as registry
+    from armlab.viz.experiments import discover
+
+    experiments = discover(armlab.load_robot("prp"), quick=True)
+    expected = [s.name for s in registry.list_scenarios() if s.plant.name in ("prp", "link1")
+                or s.plant.name.startswith("prp_")]
+    assert sorted(e.name for e in experiments) == sorted(expected)
+    for exp in experiments:
+        assert f"A{exp.assignment}" in exp.title or exp.assignment == assignment_number(exp.name)
+        assert exp.t_final is None or exp.t_final <= 2.0
 
 
 def test_assignment_numbers_are_read_from_names():
@@ -78,12 +99,13 @@ def test_assignment_numbers_are_read_from_names():
 
 
 def test_report_is_self_contained_and_complete(report):
+    report, scenarios = report
     text = report.read_text(encoding="utf-8")
     page = _elements(text)
     assert page.urls == []  # every image is a data: URI, every link an anchor
-    assert "A1" in page.sections
-    assert {"fig-robot-pose-base", "fig-robot-pose-0"} <= set(page.figures)
-    scenarios = _registered_scenarios("prp")
+    assert {"A1", "A2", "A3", "A4", "A5"} <= set(page.sections)
+    assert page.math > 50  # the derivations are there as MathML
+    assert {"fig-robot-pose-base", "fig-robot-pose-0", "fig-animation"} <= set(page.figures)
     assert sorted(page.experiments) == sorted(scenarios)
     for name in scenarios:
         number = assignment_number(name)
@@ -161,6 +183,7 @@ def test_report_renders_in_headless_chromium(report, tmp_path):
     request fails the test.  A page with an external image shows that both checks bite."""
     if CHROMIUM is None:
         pytest.skip("chromium not installed: apt-get install -y chromium (or .ci/run) to run this check")
+    report, _ = report
     from armlab.viz.html import document
 
     empty = tmp_path / "empty.html"
