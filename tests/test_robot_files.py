@@ -335,7 +335,7 @@ def test_cli_demo_prints_the_seed_dh_tables_and_forward_kinematics(capsys):
     """The seed's A1 tables (from Σ_base: base row a = 0, α = π/2, d = L0, θ = π/2) and
     T_3^0 at d1 = 0.1, θ2 = π/3, d3 = 0.1 from the seed's closed form:
     p = (s2 (L4/2 − d3), −c2 (L4/2 − d3), L2/2 + L3 + d1) = (0.0866, −0.05, 0.5)."""
-    code, out, err = _cli(capsys, "demo")
+    code, out, err = _cli(capsys, "demo", "--no-report")
     assert code == 0 and not err
     compact = [" ".join(line.split()) for line in out.splitlines()]
     assert "base → 0 0 π/2 L0 π/2" in compact
@@ -351,7 +351,7 @@ def test_cli_demo_prints_the_seed_dh_tables_and_forward_kinematics(capsys):
 
 
 def test_cli_demo_accepts_a_pose_and_another_robot(capsys):
-    code, out, _ = _cli(capsys, "demo", "--robot", "planar2r", "--q", "pi/2, 0")
+    code, out, _ = _cli(capsys, "demo", "--robot", "planar2r", "--q", "pi/2, 0", "--no-report")
     assert code == 0
     T0 = out.split("T_2^0")[1]
     rows = [line.strip(" []").split() for line in T0.splitlines()[1:5]]

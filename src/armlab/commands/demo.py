@@ -1,6 +1,7 @@
 """``armlab demo``: the seed's assignment A1 on the PRP arm — its DH tables from Σ_base and
 from Σ_0 (symbolic entries and numeric values) and the forward kinematics T_3^0 and T_3^base
-at the seed's pose d1 = 0.1 m, θ2 = π/3, d3 = 0.1 m."""
+at the seed's pose d1 = 0.1 m, θ2 = π/3, d3 = 0.1 m — then the whole seed as one HTML report
+(``armlab report``, written to ``--out``) unless ``--no-report``."""
 
 from __future__ import annotations
 
@@ -23,6 +24,9 @@ def register(subparsers) -> None:
     parser.add_argument("--robot", default="prp", help="bundled robot or robot file (default: prp)")
     parser.add_argument("--q", help="joint values, e.g. '0.1, pi/3, 0.1' (default: the seed's "
                                     "pose for the PRP, zeros otherwise)")
+    parser.add_argument("--out", default="report", help="directory of the HTML report (default: report)")
+    parser.add_argument("--quick", action="store_true", help="shortened runs in the report")
+    parser.add_argument("--no-report", action="store_true", help="only print the A1 tables")
     parser.set_defaults(func=run)
 
 
@@ -55,4 +59,9 @@ def run(args) -> int:
     print(format_matrix(forward_kinematics(robot, q, frame="0"), "  "))
     print(f"\nForward kinematics T_{n}^base = T_base,0 · T_{n}^0")
     print(format_matrix(forward_kinematics(robot, q, frame="base"), "  "))
+    if not args.no_report:
+        from armlab.viz.report import build_report
+
+        path = build_report(robot, args.out, quick=args.quick)
+        print(f"\nReport of the whole seed (A1–A15 as far as armlab runs them): {path}")
     return 0
