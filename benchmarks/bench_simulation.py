@@ -250,14 +250,16 @@ def sweep_case(scenario, runs=1000, t_final=1.0):
     start = time.perf_counter()
     one = simulate_batch(scenario.plant, controllers[:200], workers=1, **kwargs)
     single = (time.perf_counter() - start) * runs / 200
-    start = time.perf_counter()
+    start, cpu = time.perf_counter(), time.process_time()
     results = simulate_batch(scenario.plant, controllers, **kwargs)
     parallel = time.perf_counter() - start
+    cores = (time.process_time() - cpu) / parallel
     same = all(np.array_equal(a.q, b.q) for a, b in zip(one, results[:200], strict=True))
     print(f"\nGain sweep: {runs} runs of a7_id_via_points shortened to {t_final:g} s (ω_n = 4 … 12 rad/s)")
     print(f"  one thread (extrapolated from 200 runs): {single:7.2f} s wall")
     print(f"  simulate_batch, {os.cpu_count()} threads:          {parallel:7.2f} s wall "
-          f"(speed-up {single / parallel:.2f}×; results identical to one thread: {same})")
+          f"(speed-up {single / parallel:.2f}×; process CPU time / wall time = {cores:.2f} cores busy; "
+          f"results identical to one thread: {same})")
 
 
 def fresh_process_case():
