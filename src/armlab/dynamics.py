@@ -37,8 +37,8 @@ from armlab.model.robot import Robot
 
 _PACKED: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 _FLOAT = np.dtype(np.float64)
+# Writeable (never written) so that it has the same numba type as a caller's h_e.
 _NO_WRENCH = np.zeros(6)
-_NO_WRENCH.setflags(write=False)
 
 
 class SingularInertiaError(ArmlabError):
