@@ -81,6 +81,12 @@ def compact(expr, angles=(), *, collect_by=(), deep: bool = False) -> sp.Expr:
     if Q != 1:
         Q = min([Q, sp.factor(Q)], key=sp.count_ops) if sp.count_ops(Q) < SMALL else Q
         best = best / Q
+        # Over a common denominator is not always shorter (4π² I_m/p² + m stays a sum).
+        P0, _ = _polynomial_form(expr, angles)
+        alternatives = [P0, sp.factor_terms(P0)]
+        if collect_by:
+            alternatives.append(sp.collect(P0, list(collect_by)))
+        best = min([best, *alternatives], key=sp.count_ops)
     return best.xreplace(back)
 
 
