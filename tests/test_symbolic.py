@@ -311,3 +311,15 @@ def test_compact_dynamics_equal_the_lagrange_forms(name):
     assert is_zero(result.B - energy.inertia_matrix(sr), angles)
     assert is_zero(result.C - lagrange.coriolis_matrix(sr), angles)
     assert is_zero(result.g - lagrange.gravity_vector(sr), angles)
+
+
+def test_robot_without_a_spec_uses_its_numbers(tmp_path):
+    """A robot read back from URDF has no robot-file expressions: its numbers are used."""
+    r = armlab.load_urdf(armlab.save_urdf(robot("prp"), tmp_path / "prp.urdf"))
+    sr = symbolic_robot(r)
+    assert sr.numeric and not sr.parameters
+    fk = numeric_function(kinematics.end_effector_pose(sr), sr)
+    B = numeric_function(energy.inertia_matrix(sr), sr)
+    q, _, _ = random_state(r)
+    np.testing.assert_allclose(fk(q), armlab.forward_kinematics(r, q, "0"), atol=1e-12)
+    np.testing.assert_allclose(B(q), armlab.inertia_matrix(r, q), rtol=1e-10, atol=1e-12)
