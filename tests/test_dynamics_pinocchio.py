@@ -57,7 +57,7 @@ def compare_with_pinocchio(robot, q, qd, qdd):
     assert_close(forward_dynamics(rigid, q, qd, tau), aba, "aba")
 
 
-@pytest.mark.parametrize("name", ["prp", "planar2r", "puma560"])
+@pytest.mark.parametrize("name", armlab.bundled_robot_names())
 def test_bundled_robots_match_pinocchio(name):
     robot = armlab.load_robot(name)
     rng = np.random.default_rng(7)
