@@ -2,18 +2,25 @@
 
 Every kernel takes the robot's :class:`~armlab.model.robot.RobotArrays` ``m`` and a scratch
 workspace ``ws`` from :func:`make_workspace` (so nothing is allocated inside a call), writes
-into a caller-provided output and returns nothing.  All are ``@njit(cache=True)`` and can be
-called from other compiled code.
+into a caller-provided output and returns nothing (or the value named below).  All are
+``@njit(cache=True)``, compiled without reference counting (they never allocate), and can be
+called from other compiled code.  Every kernel writes the scratch it reads, so a workspace can
+be reused by any sequence of calls; it must not be shared by two threads at once.
 
-Published API (n = number of joints; arrays float64, C-contiguous)::
+Published API (n = number of joints; float64 arrays)::
 
     make_workspace(n) -> DynamicsWorkspace                       # Python or compiled
+    workspace_size(n), workspace_from_buffer(buf, n)             # the same, over a caller's buffer
     rnea_into(m, ws, q, qd, qdd, gravity_scale, h_e, tau_out)    # τ of (D1), all terms
     mass_matrix_into(m, ws, q, B_out)                            # B(q), (n, n), CRBA (D2)
     gravity_into(m, ws, q, g_out)                                # g(q), (n,)
     bias_into(m, ws, q, qd, h_e, out)                            # C q̇ + F_v q̇ + F_s sgn q̇ + g + Jᵀh_e
     coriolis_matrix_into(m, ws, q, qd, C_out)                    # Christoffel C(q, q̇), (n, n) (D4)
-    forward_dynamics_into(m, ws, q, qd, tau, h_e, qdd_out)       # q̈ of (D1), Cholesky solve (D5)
+    forward_dynamics_into(m, ws, q, qd, tau, h_e, qdd_out) -> ok # q̈ of (D1), Cholesky solve (D5);
+                                                                 #   False if B is not positive definite
+    cholesky_solve_inplace(A, b) -> ok                           # b ← A⁻¹b, A overwritten by L
+    kinetic_energy_kernel(m, ws, q, qd) -> T                     # (D6) [J]
+    potential_energy_kernel(m, ws, q) -> U                       # (D7) [J]
 
 Arguments: q, qd, qdd, tau (n,) [m | rad, /s, /s², N | N·m]; ``h_e`` (6,) = [f_e; μ_e], the
 wrench the end effector exerts on the environment, in Σ_0, μ_e about the origin of Σ_e
