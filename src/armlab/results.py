@@ -27,6 +27,15 @@ _CORE = ("q", "qd", "qdd", "tau", "z")
 FORMATS = (".npz", ".csv", ".parquet")
 
 
+def _plain(value):
+    """JSON form of metadata values that are not JSON types (arrays, numbers, objects)."""
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, np.generic):
+        return value.item()
+    return repr(value)
+
+
 class ResultFileError(ArmlabError, ValueError):
     """A result file that cannot be written or read; the message is ``file: reason``."""
 
@@ -111,7 +120,7 @@ class SimulationResult:
         suffix = path.suffix.lower()
         if suffix not in FORMATS:
             raise ResultFileError(f"{path}: unknown format {suffix!r} (use {', '.join(FORMATS)})")
-        header = json.dumps(self._header())
+        header = json.dumps(self._header(), default=_plain)
         if suffix == ".npz":
             arrays = {"t": self.t, **{f"g_{g}": a for g, a in self.groups().items()}}
             np.savez_compressed(path, header=np.array(header), **arrays)

@@ -78,8 +78,8 @@ def cache_dir() -> Path:
 
 
 def _compiled_dependencies(names) -> list[Path]:
-    """Source files of the armlab modules whose compiled functions the named modules use
-    (followed transitively through the functions and modules in their namespaces)."""
+    """Source files of the armlab modules that define compiled functions the named modules may
+    call (followed transitively through the functions and modules in their namespaces)."""
     seen, stack = set(), list(names)
     while stack:
         name = stack.pop()
@@ -93,8 +93,12 @@ def _compiled_dependencies(names) -> list[Path]:
                 stack.append(owner)
     files = []
     for name in sorted(seen):
-        origin = getattr(sys.modules.get(name), "__file__", None)
-        if origin:
+        module = sys.modules.get(name)
+        origin = getattr(module, "__file__", None)
+        # Only files that define compiled functions can change the generated loop's code.
+        compiled = any(hasattr(v, "py_func") and getattr(v, "__module__", None) == name
+                       for v in vars(module).values())
+        if origin and compiled:
             files.append(Path(origin))
     return files
 
@@ -233,12 +237,12 @@ class _Setup:
         plant, controller = self.plant, self.controller
         labels = {"q": tuple(plant.joint_names), "qd": tuple(plant.joint_names),
                   "qdd": tuple(plant.joint_names), "tau": tuple(plant.joint_names),
-                  "z": tuple(controller.state_labels())}
+                  "z": _names(controller.state_labels(), self.k, "z")}
         units = {"q": Signal.joint("q", plant, "position").units,
                  "qd": Signal.joint("qd", plant, "velocity").units,
                  "qdd": Signal.joint("qdd", plant, "acceleration").units,
                  "tau": Signal.joint("tau", plant, "effort").units,
-                 "z": tuple(getattr(controller, "state_units", lambda: ("",) * self.k)())}
+                 "z": _names(controller.state_units(), self.k, "")}
         signals, start = {}, 0
         for signal in self.signals:
             signals[signal.name] = np.ascontiguousarray(o_sig[:, start:start + signal.width])
@@ -276,6 +280,14 @@ class _Setup:
         elif status == 3:
             what += f" (above {self.ke_max:g} J)"
         return f"simulation diverged at t = {t:.6g} s (step {step}): {what}"
+
+
+def _names(given, k: int, stem: str) -> tuple[str, ...]:
+    """k labels (or units): the controller's if it gives k of them, else stem0, stem1, …"""
+    given = tuple(given)
+    if len(given) == k:
+        return given
+    return tuple(f"{stem}{i}" if stem else "" for i in range(k))
 
 
 def _describe_terms(terms):

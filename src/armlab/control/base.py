@@ -52,7 +52,8 @@ numbers, :class:`~armlab.model.robot.RobotArrays` and tuples of those.  It is ca
 simulation; the simulator gives every parallel run its own copy, so workspaces inside may be
 scratch memory.
 
-``initial_state()`` returns z(0) (k,), ``state_labels()`` its k component names, and
+``initial_state()`` returns z(0) (k,), ``state_labels()`` / ``state_units()`` its k component
+names and units, and
 ``signals()`` the :class:`Signal` list describing ``signals_out`` (name, component labels,
 units) — the seed's "scopes".  The simulator adds ``q_des`` etc. only if the controller logs
 them: a controller should log what a user wants to see (references, errors, estimates).
@@ -186,6 +187,10 @@ class Controller(abc.ABC):
     def state_labels(self) -> tuple[str, ...]:
         """Names of the k components of z."""
         return ()
+
+    def state_units(self) -> tuple[str, ...]:
+        """Units of the k components of z ("" when unspecified)."""
+        return ("",) * len(self.state_labels())
 
     def signals(self) -> tuple[Signal, ...]:
         """The logged signals written into ``signals_out``, in order."""
