@@ -8,6 +8,8 @@
 * final contact force (last 5 %) and its error against the desired force;
 * final parameter estimates against the true values.
 
+A diverged run's diagnosis is not a metric: the report prints it next to the table.
+
 Each metric is a :class:`Metric` row (quantity, component, value, unit) for the report's tables.
 """
 
@@ -134,6 +136,4 @@ def measure(result) -> list[Metric]:
             mismatch = np.sum(regressor * (result.z - np.asarray(true_values, dtype=float)), axis=1)
             rows.append(Metric("RMS Y(π̂ − π) (2nd half)", "", float(np.sqrt(np.mean(mismatch[half] ** 2))),
                                result.units["tau"][0]))
-    if result.status != "ok":
-        rows.append(Metric("status", "", result.diagnosis or result.status))
     return rows

@@ -163,6 +163,20 @@ def _symbolic_sections(robot: Robot, progress: Progress) -> dict[int, str]:
 # ----------------------------------------------------------------------------- A6–A15
 
 
+def metric_table(metrics: list[Metric]) -> tuple[list[str], list[list[str]]]:
+    """Metrics as one row per quantity and one column per component ("value unit" cells)."""
+    components: list[str] = []
+    cells: dict[str, dict[str, str]] = {}
+    for m in metrics:
+        if m.component not in components:
+            components.append(m.component)
+        text = f"{m.formatted()} {m.unit}".strip()
+        cells.setdefault(m.quantity, {})[m.component] = text
+    headers = ["measured", *[c or "value" for c in components]]
+    rows = [[quantity, *[row.get(c, "") for c in components]] for quantity, row in cells.items()]
+    return headers, rows
+
+
 def _experiment_html(exp: Experiment) -> str:
     name = html.escape(exp.name)
     parts = [f'<article class="experiment" id="exp-{name}" data-experiment="{name}">',
@@ -173,8 +187,8 @@ def _experiment_html(exp: Experiment) -> str:
         tables.append(html.table(["parameter", "value"], [list(p) for p in exp.parameters],
                                  caption="set-up"))
     if exp.metrics:
-        rows = [[m.quantity, m.component, m.formatted(), m.unit] for m in exp.metrics]
-        tables.append(html.table(["measured", "component", "value", "unit"], rows, numeric={2},
+        headers, rows = metric_table(exp.metrics)
+        tables.append(html.table(headers, rows, numeric=set(range(1, len(headers))),
                                  caption=f"measured on the run ({exp.seconds:.1f} s wall time)"))
     parts.append('<div class="tables">' + "".join(tables) + "</div>")
     result = exp.result
@@ -361,11 +375,19 @@ def _drawings_block(drawings: str) -> str:
 
 
 def _animation(planned: list[Experiment], out_dir: Path) -> str:
-    """A GIF of the most telling run: one with an environment plane if any, else the first."""
+    """A GIF of the most telling run: among the runs with an environment plane (else all), the
+    one whose joints travel furthest relative to their ranges."""
     runs = [e for e in planned if e.result is not None and e.robot is not None and len(e.result.t) >= 2]
     if not runs:
         return ""
-    exp = next((e for e in runs if e.plane is not None), runs[0])
+    def motion(e):
+        # Joint travel relative to each joint's range: the run where the arm moves most.
+        spans = np.array([(hi - lo) if np.isfinite(hi - lo) else 1.0 for lo, hi in
+                          (j.limits for j in e.robot.joints)])
+        return float(np.sum(np.ptp(e.result.q, axis=0) / spans))
+
+    with_plane = [e for e in runs if e.plane is not None]
+    exp = max(with_plane or runs, key=motion)
     path = animate_robot(exp.robot, exp.result.t, exp.result.q, out_dir / f"{exp.name}.gif",
                          plane=exp.plane, max_frames=60, fps=12, dpi=64, title=exp.name)
     uri = html.gif_data_uri(path.read_bytes())
