@@ -56,6 +56,8 @@ from armlab.model.robot import PRISMATIC
 # taken out of ``m`` or ``ws`` and every row view costs an atomic increment/decrement pair,
 # which made the 3-joint RNEA ~20× slower than its arithmetic.
 kernel = njit(cache=True, _nrt=False)
+# Small helpers are inlined: a call passes m and ws flattened (~300 machine words).
+small_kernel = njit(cache=True, _nrt=False, inline="always")
 
 
 class DynamicsWorkspace(NamedTuple):
@@ -141,7 +143,7 @@ def make_workspace(n):
     return workspace_from_buffer(np.zeros(workspace_size(n)), n)
 
 
-@kernel
+@small_kernel
 def local_transforms_into(m, q, R, p):
     """J_i in J_{i−1}: R[i] = X_R,i M_R(q_i), p[i] = X_p,i + M_p(q_i) (K1 in joint frames)."""
     n = q.shape[0]
@@ -306,7 +308,7 @@ def _rnea_core(m, ws, q, qd, qdd, gravity_scale, h_e, with_wrench, with_friction
                 tau_out[i] -= m.coulomb[i]
 
 
-@kernel
+@small_kernel
 def _has_wrench(h_e):
     for k in range(6):
         if h_e[k] != 0.0:
