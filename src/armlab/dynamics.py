@@ -59,9 +59,10 @@ def _packed(robot: Robot):
 
 
 def _vector(robot: Robot, value, name: str) -> np.ndarray:
-    # Fast path first: a float64 vector of the right length goes to the kernel as it is
-    # (the compiled code handles any stride).
-    if type(value) is np.ndarray and value.dtype is _FLOAT and value.shape == (len(robot.joints),):
+    # Fast path first: a contiguous float64 vector of the right length goes to the kernel as it
+    # is (other layouts are copied, so the kernels compile for one array type only).
+    if (type(value) is np.ndarray and value.dtype is _FLOAT and value.shape == (len(robot.joints),)
+            and value.strides[0] == 8):
         return value
     array = np.ascontiguousarray(value, dtype=np.float64)
     if array.shape != (robot.n,):
