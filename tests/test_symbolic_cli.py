@@ -38,3 +38,22 @@ def test_cli_derive_unknown_robot_is_one_line_error(capsys):
     assert main(["derive", "no_such_robot"]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "no_such_robot" in err
+
+
+def test_derive_takes_the_recursive_route_beyond_three_joints():
+    import numpy as np
+
+    from armlab.model.toml_io import robot_from_dict
+
+    link = {"mass": 1.0, "com": [-0.1, 0, 0], "inertia": [[0.001, 0, 0], [0, 0.01, 0], [0, 0, 0.01]]}
+    robot = robot_from_dict({"name": "planar4r", "gravity": [0, -9.81, 0], "joints": [
+        {"name": f"q{i}", "type": "revolute", "dh": {"a": 0.2, "alpha": 0, "d": 0, "theta": 0},
+         "link": link} for i in range(1, 5)]}, "planar4r.toml")
+    (a3,) = derive(robot, only="A3")
+    items = dict(a3.pairs())
+    assert "ℒ = T − U" not in items and any("polynomial ring" in note for note in a3.notes)
+    q, qd = np.array([0.3, -0.7, 1.1, 0.2]), np.array([0.5, -1.0, 0.8, 0.3])
+    symbols = sorted(items["C(q, q̇)"].free_symbols, key=str)
+    values = {s: (qd if "dot" in s.name else q)[int(s.name[-1]) - 1] for s in symbols}
+    C = np.array(items["C(q, q̇)"].xreplace(values).evalf(), dtype=float)
+    np.testing.assert_allclose(C, armlab.coriolis_matrix(robot, q, qd), atol=1e-12)

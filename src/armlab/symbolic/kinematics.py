@@ -119,6 +119,19 @@ def analytical_jacobian(sr: SymbolicRobot, frame: str = "0") -> tuple[sp.Matrix,
     return compact_matrix(J_A, angles(sr)), phi
 
 
+def analytical_jacobian_formula(sr: SymbolicRobot, frame: str = "0") -> tuple[sp.Matrix, sp.Matrix]:
+    """(J_A, T⁻¹(φ)): J_A = blockdiag(I₃, T⁻¹(φ)) J with the ZYZ angles φ = (φ, ϑ, ψ) kept as
+    symbols (Siciliano (3.66)) — the form that stays small for six joints, where
+    differentiating φ_e(q) does not."""
+    a, b, _ = sp.symbols("varphi vartheta psi", real=True)
+    T = sp.Matrix([[0, -sp.sin(a), sp.cos(a) * sp.sin(b)],
+                   [0, sp.cos(a), sp.sin(a) * sp.sin(b)],
+                   [1, 0, sp.cos(b)]])
+    T_inv = sp.simplify(T.inv())
+    J = geometric_jacobian(sr, frame)
+    return J[:3, :].col_join(T_inv * J[3:, :]), T_inv
+
+
 def position_inverse_kinematics(sr: SymbolicRobot, frame: str = "0", position=None) -> list[dict]:
     """Every closed-form solution q(p) of p_e(q) = p, as a list of {q_i: expression}.
 

@@ -8,11 +8,13 @@ MathML with :func:`armlab.symbolic.render.to_mathml`).  Every label exists as Un
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import lru_cache
 
 import sympy as sp
 
 from armlab.model.robot import Robot
 from armlab.symbolic import energy, kinematics, lagrange, newton_euler, operational
+from armlab.symbolic.compact import compact_dynamics
 from armlab.symbolic.model import SymbolicRobot, symbolic_robot
 from armlab.symbolic.simplify import compact_matrix, count_ops
 
@@ -108,10 +110,29 @@ def _a1(sr: SymbolicRobot, frame: str) -> Section:
         s.notes.append("No closed-form inverse kinematics found for the position equations.")
     where = r"\mathrm{base}" if frame == "base" else "0"
     s.add(f"J (geometric, Σ_{frame})", K.geometric_jacobian(sr, frame), rf"J^{{{where}}}")
+    if _large(sr):
+        J_A, T_inv = K.analytical_jacobian_formula(sr, frame)
+        s.add("T(φ)⁻¹ (ZYZ)", T_inv, r"T^{-1}(\phi)")
+        s.add(f"J_A = blockdiag(I, T(φ)⁻¹) J (Σ_{frame})", J_A, rf"J_A^{{{where}}}")
+        return s
     J_A, phi = K.analytical_jacobian(sr, frame)
     s.add(f"φ_e (ZYZ of R_e in Σ_{frame})", phi, rf"\phi_e^{{{where}}}")
     s.add(f"J_A (analytical, ZYZ, Σ_{frame})", J_A, rf"J_A^{{{where}}}")
     return s
+
+
+LARGE = 3
+"""Robots with more joints than this take the recursive route (:mod:`compact`) for B, C, g
+and skip the per-link energies, the Lagrange ≡ NE proof and A5, whose expressions explode."""
+
+
+def _large(sr: SymbolicRobot) -> bool:
+    return sr.n > LARGE
+
+
+@lru_cache(maxsize=8)
+def _compact(sr: SymbolicRobot):
+    return compact_dynamics(sr)
 
 
 def _a2(sr: SymbolicRobot) -> Section:
@@ -133,6 +154,14 @@ def _a2(sr: SymbolicRobot) -> Section:
     for i, (J_P, J_O) in enumerate(E.partial_jacobians(sr), start=1):
         s.add(f"J_P^ℓ{i}".translate(_SUB), J_P, rf"J_P^{{\ell_{{{i}}}}}")
         s.add(f"J_O^ℓ{i}".translate(_SUB), J_O, rf"J_O^{{\ell_{{{i}}}}}")
+    if _large(sr):
+        B = _compact(sr).B
+        s.add("B(q)", B, r"B(q)")
+        for i, U in enumerate(E.potential_energies(sr), start=1):
+            s.add(f"U_ℓ{i}".translate(_SUB), U, rf"\mathcal{{U}}_{{\ell_{{{i}}}}}")
+        s.notes.append(f"{sr.n} joints: B by Newton–Euler over a polynomial ring (N3), the "
+                       f"per-link energies are not expanded; count_ops(B) = {count_ops(B)}")
+        return s
     links, rotors = E.kinetic_energies(sr)
     for i, T in enumerate(links, start=1):
         s.add(f"T_ℓ{i}".translate(_SUB), T, rf"\mathcal{{T}}_{{\ell_{{{i}}}}}")
@@ -152,6 +181,14 @@ def _a2(sr: SymbolicRobot) -> Section:
 def _a3(sr: SymbolicRobot) -> Section:
     s = Section("A3", TITLES["A3"])
     L = lagrange
+    if _large(sr):
+        result = _compact(sr)
+        s.add("C(q, q̇)", result.C, r"C(q, \dot q)")
+        s.add("g(q)", result.g, r"g(q)")
+        s.notes.append(f"{sr.n} joints: C = ½ ∂(C q̇)/∂q̇ and g from Newton–Euler over a polynomial "
+                       f"ring (N3); count_ops: B {result.ops['B']}, C {result.ops['C']}, "
+                       f"g {result.ops['g']}, all three with shared subexpressions {result.ops_cse}")
+        return s
     s.add("ℒ = T − U", L.lagrangian(sr), r"\mathcal{L}")
     s.add("τ = d/dt(∂ℒ/∂q̇)ᵀ − (∂ℒ/∂q)ᵀ + F_v q̇ + F_s sgn q̇", L.equations_of_motion(sr), r"\tau")
     C, g = L.coriolis_matrix(sr), L.gravity_vector(sr)
@@ -171,6 +208,15 @@ def _a4(sr: SymbolicRobot) -> Section:
     for i, A in enumerate(kinematics.relative_transforms(sr), start=1):
         label, tex = _T(i, i - 1)
         s.add(label, A, tex)
+    if _large(sr):
+        result = _compact(sr)
+        s.add("B = ∂τ/∂q̈", result.B, r"B = \partial\tau/\partial\ddot q")
+        s.add("C q̇", compact_matrix(result.C * sr.qd, kinematics.angles(sr)), r"C\dot q")
+        s.add("g = τ(q, 0, 0; g₀)", result.g, r"g = NE(q, 0, 0; g_0)")
+        s.notes.append(f"{sr.n} joints: one Newton–Euler pass over a polynomial ring gives τ, read off "
+                       "as B, C q̇, g (N3); the symbolic identity with Lagrange is proven on smaller "
+                       "arms (tests).")
+        return s
     full = N.full_equations(sr)
     for i in range(sr.n):
         k = i + 1
@@ -202,6 +248,11 @@ def _a5(sr: SymbolicRobot, frame: str) -> Section:
     s = Section("A5", TITLES["A5"])
     T_A, _ = operational.euler_rate_matrix()
     s.add("T_A(φ) (ZYZ)", T_A, r"T_A(\phi)")
+    if _large(sr):
+        s.notes.append(f"{sr.n} joints: B_A = J_A⁻ᵀ B J_A⁻¹ needs the symbolic inverse of a "
+                       f"{sr.n}×{sr.n} J_A; evaluate it numerically (armlab's operational-space "
+                       "functions) instead.")
+        return s
     model = operational.operational_model(sr, frame)
     if model is None:
         s.notes.append("The task rows do not give a square, generically invertible J_A.")
