@@ -4,8 +4,10 @@ The expressions are turned into Python by SymPy's own printer (``sympy.lambdify`
 common-subexpression elimination, ``cse=True``) and compiled by ``numba.njit``; nothing is
 assembled from strings here.  Each generated kernel has the signature of its numeric twin in
 ``armlab.kernels.dynamics`` / ``armlab.kernels.kinematics`` and writes into the caller's
-output (``m`` and ``ws`` are accepted and unused — the robot's numbers are inside the
-formulas):
+output.  The robot's numbers are inside the formulas, so ``m`` is accepted and unused; ``ws``
+(a ``DynamicsWorkspace``) lends ``L``, ``t2`` and ``Ic`` as scratch to ``rnea_into`` and
+``forward_dynamics_into``.  The generated functions are compiled per process (they have no
+source file for numba's cache):
 
     mass_matrix_into(m, ws, q, B_out)                 B(q), (n, n)
     coriolis_matrix_into(m, ws, q, qd, C_out)         C(q, q̇), (n, n), Christoffel (D4)
