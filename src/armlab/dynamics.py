@@ -15,8 +15,6 @@ Each function is a thin, checked wrapper of a compiled kernel of
 
 from __future__ import annotations
 
-import weakref
-
 import numpy as np
 from numba import njit
 
@@ -35,7 +33,7 @@ from armlab.kernels.dynamics import (
 from armlab.kernels.packed import pack_robot, unpack_robot
 from armlab.model.robot import Robot
 
-_PACKED: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+_CACHE_KEY = "_dynamics_packed"
 _FLOAT = np.dtype(np.float64)
 # Writeable (never written) so that it has the same numba type as a caller's h_e.
 _NO_WRENCH = np.zeros(6)
@@ -47,15 +45,16 @@ class SingularInertiaError(ArmlabError):
 
 def _packed(robot: Robot):
     """(joint_type, data, workspace buffer) of ``robot``: its arrays packed for cheap calls and
-    a scratch buffer.  The packed arrays depend only on the immutable robot (like
-    ``robot.arrays``); every kernel writes the scratch it reads first, so sharing the buffer
-    between calls (serialised by the GIL, the kernels keep it) cannot change a result."""
-    try:
-        return _PACKED[robot]
-    except KeyError:
+    a scratch buffer, kept in the robot's instance dictionary next to ``robot.arrays`` (a
+    plain attribute lookup; a weak-key dictionary costs more than the dynamics of a small
+    arm).  The packed arrays depend only on the immutable robot; every kernel writes the
+    scratch it reads first, so sharing the buffer between calls (serialised by the GIL, which
+    the kernels keep) cannot change a result."""
+    packed = robot.__dict__.get(_CACHE_KEY)
+    if packed is None:
         joint_type, data = pack_robot(robot.arrays)
-        packed = _PACKED[robot] = (joint_type, data, np.zeros(workspace_size(robot.n)))
-        return packed
+        packed = robot.__dict__[_CACHE_KEY] = (joint_type, data, np.zeros(workspace_size(robot.n)))
+    return packed
 
 
 def _vector(robot: Robot, value, name: str) -> np.ndarray:
