@@ -202,3 +202,19 @@ def test_metrics_against_the_closed_form_first_order_decay():
     assert 0.0 < rows[("time at the torque limit", "d1")] < 100.0
     assert abs(rows[("final force error f_d − h_e", "fy")]) < 0.5 * np.exp(-4.7)
     assert settling_time(result.t, np.cos(result.t)) is None  # never settles
+
+
+def test_environment_planes_of_the_seed_environments():
+    """A11's spring K = diag(0, 1e4, 0, 10, 0, 0) is stiff along y_0 only: its plane is normal
+    to y_0 through the rest position; a wall is drawn as itself; free space has no plane."""
+    from armlab.environment import FreeSpace, PlanarWall, Spring
+    from armlab.viz.experiments import environment_plane
+
+    spring = Spring(stiffness=np.diag([0, 1e4, 0, 10, 0, 0]), rest_position=np.array([0.0, -0.1, 0.5]))
+    plane = environment_plane(spring)
+    assert np.allclose(plane.point, [0.0, -0.1, 0.5])
+    assert np.allclose(np.abs(plane.normal), [0.0, 1.0, 0.0])
+    wall = PlanarWall(point=np.array([0.0, -0.2, 0.0]), normal=np.array([0.0, 2.0, 0.0]), stiffness=1e3)
+    assert np.allclose(environment_plane(wall).normal, [0.0, 1.0, 0.0])
+    assert environment_plane(FreeSpace()) is None
+    assert environment_plane(None) is None

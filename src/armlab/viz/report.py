@@ -282,6 +282,7 @@ def _run_all(planned: list[Experiment], progress: Progress, workers: int, main_j
             progress.step(f"running {exp.name}")
             evaluate(exp)
             progress.advance()
+        progress.step(f"running {len(pooled)} scenarios in {workers} processes (first runs compile)")
         for future in as_completed(futures):
             done = future.result()
             target = by_name[futures[future]]
@@ -320,7 +321,11 @@ def build_report(robot: str | Robot = "prp", out_dir: str | Path = "report", *, 
         progress.step("robot drawings")
         drawn = _drawings(robot)
         progress.advance()
-        return drawn, _symbolic_sections(robot, progress)
+        try:
+            derived = _symbolic_sections(robot, progress)
+        except Exception as error:  # a robot SymPy cannot derive still gets its experiments
+            derived = {1: f'<p class="diverged">Symbolic derivation failed: {html.escape(error)}</p>'}
+        return drawn, derived
 
     workers = max(1, min(2, os.cpu_count() or 1)) if jobs is None else jobs
     drawings, derivations = _run_all(planned, progress, workers, here)
@@ -331,7 +336,7 @@ def build_report(robot: str | Robot = "prp", out_dir: str | Path = "report", *, 
     movie = ""
     if animation:
         progress.step("animation")
-        movie = _animation(planned, out_dir)
+        movie = _animation(planned, out_dir, robot.name)
         progress.advance()
 
     sections, nav, missing = [], [], []
@@ -374,12 +379,15 @@ def _drawings_block(drawings: str) -> str:
     return "<h3>The robot and its frames</h3>" + drawings
 
 
-def _animation(planned: list[Experiment], out_dir: Path) -> str:
-    """A GIF of the most telling run: among the runs with an environment plane (else all), the
-    one whose joints travel furthest relative to their ranges."""
+def _animation(planned: list[Experiment], out_dir: Path, robot_name: str) -> str:
+    """A GIF of the most telling run of the report's robot (other robots if it has none): among
+    the runs with an environment plane (else all), the one whose joints travel furthest
+    relative to their ranges."""
     runs = [e for e in planned if e.result is not None and e.robot is not None and len(e.result.t) >= 2]
+    runs = [e for e in runs if e.robot.name == robot_name] or runs
     if not runs:
         return ""
+
     def motion(e):
         # Joint travel relative to each joint's range: the run where the arm moves most.
         spans = np.array([(hi - lo) if np.isfinite(hi - lo) else 1.0 for lo, hi in
