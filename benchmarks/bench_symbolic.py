@@ -4,9 +4,9 @@
   ratios as symbols): B, C, g by Newton–Euler over a polynomial ring (``compact_dynamics``),
   target ≤ 60 s; operation counts of the expanded forms and with shared subexpressions;
   checked against the numeric kernels at random states.
-* The naive route for comparison, on a budget: Christoffel symbols of the B obtained from
-  partial Jacobians without simplification, on the PUMA's first three joints (its six-joint
-  version runs to millions of operations).
+* The naive route for comparison: Christoffel symbols of the B obtained from partial
+  Jacobians without simplification, for the same six joints (slow: counting its operations
+  alone takes a minute).
 * The PRP's whole A1–A5 chain as ``armlab derive prp`` prints it.
 * The compiled closed form against the numeric kernels (same signatures): time per call.
 
@@ -86,34 +86,38 @@ def puma_compact():
             "puma560 max |closed form − kernels|": error}, (robot, result)
 
 
-def naive_christoffel_three_joints():
-    """Partial-Jacobian B without simplification and its Christoffel C, PUMA joints 1–3."""
+def naive_christoffel(joints: int = 6):
+    """B from partial Jacobians without simplification and its Christoffel C, for the PUMA's
+    first ``joints`` joints: the route that does not scale (about 2.4 million operations in C
+    for six joints when measured; counting them alone takes a minute)."""
     import armlab
     from armlab.model.robot import Robot
     from armlab.symbolic.model import symbolic_robot
     from armlab.symbolic.simplify import count_ops
 
     puma = armlab.load_robot("puma560")
-    arm = Robot(name="puma_arm", joints=puma.joints[:3], links=puma.links[:3], gravity=puma.gravity)
+    arm = Robot(name="puma_arm", joints=puma.joints[:joints], links=puma.links[:joints],
+                gravity=puma.gravity)
     sr = symbolic_robot(arm)
+    n = sr.n
     start = time.perf_counter()
     T = sp.eye(4)
-    B = sp.zeros(3, 3)
+    B = sp.zeros(n, n)
     axes = []
     for joint, link in zip(sr.joints, sr.links, strict=True):
-        axes.append(((T * joint.before)[:3, 2], (T * joint.before)[:3, 3]))
+        axes.append((T * joint.before)[:3, 2])
         T = T * joint.transform()
         p_c = (T * link.com.col_join(sp.Matrix([1])))[:3, 0]
         J_P = p_c.jacobian(sr.q)
-        J_O = sp.Matrix.hstack(*[axes[k][0] if k < len(axes) else sp.zeros(3, 1) for k in range(3)])
+        J_O = sp.Matrix.hstack(*[axes[k] if k < len(axes) else sp.zeros(3, 1) for k in range(n)])
         R = T[:3, :3]
         B += link.mass * J_P.T * J_P + J_O.T * R * link.inertia * R.T * J_O
     q, qd = list(sr.q), list(sr.qd)
-    C = sp.Matrix(3, 3, lambda i, j: sum((sp.diff(B[i, j], q[k]) + sp.diff(B[i, k], q[j])
-                                          - sp.diff(B[j, k], q[i])) * qd[k] / 2 for k in range(3)))
+    C = sp.Matrix(n, n, lambda i, j: sum((sp.diff(B[i, j], q[k]) + sp.diff(B[i, k], q[j])
+                                          - sp.diff(B[j, k], q[i])) * qd[k] / 2 for k in range(n)))
     seconds = time.perf_counter() - start
-    return {"naive 3-joint B, C [s]": seconds, "naive 3-joint ops B": count_ops(B),
-            "naive 3-joint ops C": count_ops(C)}
+    return {f"naive {n}-joint B, C (unsimplified) [s]": seconds,
+            f"naive {n}-joint ops B": count_ops(B), f"naive {n}-joint ops C": count_ops(C)}
 
 
 def prp_chain():
@@ -163,7 +167,7 @@ def main() -> dict:
     results.update(prp_chain())
     puma, (robot, compact) = puma_compact()
     results.update(puma)
-    results.update(naive_christoffel_three_joints())
+    results.update(naive_christoffel(6))
     results.update(compiled_vs_kernels(armlab.load_robot("prp")))
     results.update(compiled_vs_kernels(robot, compact))
     width = max(map(len, results))
