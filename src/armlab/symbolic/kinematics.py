@@ -12,7 +12,6 @@ from functools import lru_cache
 
 import sympy as sp
 
-from armlab.symbolic.expressions import transform
 from armlab.symbolic.model import SymbolicRobot
 from armlab.symbolic.simplify import compact, compact_matrix
 
@@ -182,8 +181,3 @@ def _atan2(y, x):
     if dy == dx and (dy.is_nonnegative or isinstance(dy, sp.Pow) and dy.exp == sp.S.Half):
         return sp.atan2(ny, nx)
     return sp.atan2(y, x)
-
-
-def base_pose(sr: SymbolicRobot) -> sp.Matrix:
-    """T_0^base (the base transform)."""
-    return sr.base if sr.base is not None else transform()

@@ -254,7 +254,7 @@ def _from_spec(robot: Robot, numeric: bool) -> SymbolicRobot:
                                   dh=row, **constants)
         else:
             origin, _ = reader.pose(table.get("origin"))
-            axis = np.array([float(v) for v in numeric_axis(table.get("axis"), robot.parameters)])
+            axis = np.array([float(v) for v in _numeric_axis(table.get("axis"), robot.parameters)])
             align = sp.Matrix(3, 3, [exact_entry(v) for v in rotation_to_axis(axis).ravel()])
             joint = SymbolicJoint(numeric_joint.name, kind, q, qd, qdd, origin * transform(align),
                                   inverse_transform(transform(align)), sp.Integer(0), **constants)
@@ -269,7 +269,7 @@ def _from_spec(robot: Robot, numeric: bool) -> SymbolicRobot:
                          convention, symbols, values, numeric)
 
 
-def numeric_axis(raw, parameters: dict) -> list[float]:
+def _numeric_axis(raw, parameters: dict) -> list[float]:
     from armlab.model.toml_io import evaluate_expression
 
     raw = [0, 0, 1] if raw is None else raw

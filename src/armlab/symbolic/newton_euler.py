@@ -14,7 +14,9 @@ the same law in two arithmetics.  With R_i, p_i the pose of J_i in J_{i−1}, z 
                    + p_{i+1} × R_{i+1} f_{i+1} + I_m,i+1 (ṡ_{i+1} z_m + s_{i+1} ω_i × z_m)
              τ_i = zᵀ μ_i | zᵀ f_i  + k_rᵢ I_mᵢ ṡ_i + F_vᵢ q̇_i + F_sᵢ sgn q̇_i          (N1)
 
-with the rotor spin s_i = z_mᵢᵀ ω_{i−1} + k_rᵢ q̇_i of (D3).  From it (seed A4):
+with the rotor spin s_i = z_mᵢᵀ ω_{i−1} + k_rᵢ q̇_i of (D3); motor i's mass m_mᵢ is a point of
+link i−1 at joint i's origin p_mᵢ, adding m_mᵢ a_mᵢ to f_{i−1} and p_mᵢ × m_mᵢ a_mᵢ to μ_{i−1}.
+From it (seed A4):
 
     B e_j = NE(q, 0, e_j; 0),   C q̇ = NE(q, q̇, 0; 0),   g = NE(q, 0, 0; g_0)              (N2)
 """

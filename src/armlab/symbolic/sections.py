@@ -27,7 +27,6 @@ TITLES = {
     "A5": "Dynamic model in operational space",
 }
 _SUB = str.maketrans("0123456789", "₀₁₂₃₄₅₆₇₈₉")
-_SUP = str.maketrans("0123456789e", "⁰¹²³⁴⁵⁶⁷⁸⁹ᵉ")
 
 
 class Item(tuple):

@@ -1,20 +1,19 @@
 """Simplification to the compact forms a person would write, and operation counts.
 
-Two routes, chosen by size:
-
-* small expressions (the PRP, planar arms): ``trigsimp`` then factoring of common symbols;
-* large ones (six-joint arms): a *trigonometric-polynomial* normal form — every sin q_i,
-  cos q_i becomes a symbol s_i, c_i, the polynomial is expanded, reduced modulo
-  s_i² + c_i² − 1 (s_i² → 1 − c_i²) and collected; this is exact, linear in the size of
-  the expression and never blows up the way ``simplify`` does on a million-operation
-  Christoffel sum.
+Every sin q_i, cos q_i of a revolute joint becomes a symbol s_i, c_i, the expression is
+expanded as a polynomial and reduced modulo s_i² + c_i² − 1 (s_i² → 1 − c_i²): an exact normal
+form (zero iff the expression is identically zero) computed in time linear in the size of the
+expression, unlike ``trigsimp``/``simplify``, which stall on large Christoffel sums.  From it
+:func:`compact` keeps the shortest of a few equivalent forms — common factors pulled out,
+collected on given symbols, factored (small expressions only), over a common denominator or
+not — measured by ``count_ops``.
 """
 
 from __future__ import annotations
 
 import sympy as sp
 
-SMALL = 400  # count_ops below which the general-purpose simplifiers are affordable
+SMALL = 400  # count_ops below which polynomial factoring is affordable
 
 
 def count_ops(obj) -> int:
