@@ -35,7 +35,12 @@ class DisturbanceSpecError(ArmlabError, ValueError):
     """A disturbance whose numbers cannot describe a torque (names the field)."""
 
 
-@njit(cache=True)
+# Allocation-free compiled code runs without reference counting (``_nrt=False``): with it,
+# every array taken out of a parameter tuple costs an atomic increment and decrement.
+kernel = njit(cache=True, _nrt=False)
+
+
+@kernel
 def disturbance_into(dist, t, q, qd, tau_d_out):
     """τ_d(t, q, q̇) (n,) [N | N·m] of (S2): the sum of the terms encoded in ``dist``."""
     n = q.shape[0]

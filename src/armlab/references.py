@@ -36,7 +36,12 @@ class ReferenceSpecError(ArmlabError, ValueError):
     """A reference whose numbers cannot describe a trajectory (names the field)."""
 
 
-@njit(cache=True)
+# Allocation-free compiled code runs without reference counting (``_nrt=False``): with it,
+# every array taken out of a parameter tuple costs an atomic increment and decrement.
+kernel = njit(cache=True, _nrt=False)
+
+
+@kernel
 def _quintic(u):
     """s(u), s'(u), s''(u) of the rest-to-rest quintic (R2), u ∈ [0, 1]."""
     u2 = u * u
@@ -46,7 +51,7 @@ def _quintic(u):
             60.0 * u - 180.0 * u2 + 120.0 * u3)
 
 
-@njit(cache=True)
+@kernel
 def reference_into(ref, t, q_des, qd_des, qdd_des):
     """Evaluate the reference ``ref`` (a ``JointReference.data`` array) at time t [s].
 

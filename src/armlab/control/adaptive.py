@@ -49,7 +49,12 @@ from armlab.references import JointReference, reference_into
 PARAMETER_NAMES = ("m", "mcx", "mcy", "mcz", "Ixx", "Ixy", "Ixz", "Iyy", "Iyz", "Izz", "Fv")
 
 
-@njit(cache=True)
+# Allocation-free compiled code runs without reference counting (``_nrt=False``): with it,
+# every array taken out of a parameter tuple costs an atomic increment and decrement.
+kernel = njit(cache=True, _nrt=False)
+
+
+@kernel
 def slotine_li_1dof_law(t, q, qd, z, h_e, params, tau_out, zdot_out, signals_out):
     """(C4), (C5) with the seed's regressor (C7); z = π̂ = [Î, F̂, Ĝ]."""
     ref, kd, lam, gamma, q_des, qd_des, qdd_des, Y = params
@@ -141,7 +146,7 @@ def parameter_mismatch(result, true_parameters) -> np.ndarray:
 
 # --------------------------------------------------------------------------- n-DoF
 
-@njit(cache=True)
+@kernel
 def _set_link(ms, i, pi):
     """Give link i of the scratch robot the standard parameters pi (10,) (see module docstring)."""
     mass = pi[0]
@@ -161,7 +166,7 @@ def _set_link(ms, i, pi):
         I[r, r] -= mass * cc
 
 
-@njit(cache=True)
+@kernel
 def _polarised(ms, ws, q, qd, qd_r, qdd_r, u, a, zero6, t1, t2, out):
     """B q̈_r + C(q, q̇) q̇_r + g of robot ms by (C8)."""
     n = q.shape[0]
@@ -177,7 +182,7 @@ def _polarised(ms, ws, q, qd, qd_r, qdd_r, u, a, zero6, t1, t2, out):
         out[k] = 0.25 * (t1[k] - t2[k])
 
 
-@njit(cache=True)
+@kernel
 def regressor_into(ms, ws, q, qd, qd_r, qdd_r, work, Y_out):
     """Y(q, q̇, q̇_r, q̈_r) (n, 11n) with Y π = B q̈_r + C q̇_r + F_v q̇_r + g (C5), built by (C8).
 
@@ -215,7 +220,7 @@ def regressor_into(ms, ws, q, qd, qd_r, qdd_r, work, Y_out):
                 ms.inertia[i, r, k] = 0.0
 
 
-@njit(cache=True)
+@kernel
 def slotine_li_law(t, q, qd, z, h_e, params, tau_out, zdot_out, signals_out):
     """(C4), (C5) with the numeric regressor (C8); z = π̂ (11n,)."""
     ms, ws, ref, kd, lam, gamma, q_des, qd_des, qdd_des, qd_r, qdd_r, sigma, work, Y = params

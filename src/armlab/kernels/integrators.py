@@ -55,7 +55,7 @@ def make_scratch(n, k, s):
             np.zeros((6, n)), np.zeros(6), np.zeros(n))
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def stage(t, x, n, pm, pws, cparams, eparams, dist, has_env, call_law, z_rate, lim, sc, xdot):
     """ẋ at (t, x) (S1, S2); returns False if B(q) is not positive definite."""
     tau_c, tau_a, tau_d, tau_p, h_e, zdot, sig, Rf, pf, Re, pe, J, ve, qdd = sc
@@ -93,7 +93,7 @@ def stage(t, x, n, pm, pws, cparams, eparams, dist, has_env, call_law, z_rate, l
     return ok
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def kinetic_energy(pm, pws, x, n, tmp, zero6):
     """½ q̇ᵀ B(q) q̇ [J], B q̇ from the RNEA with q̇ in the acceleration slot."""
     q = x[:n]
@@ -105,7 +105,7 @@ def kinetic_energy(pm, pws, x, n, tmp, zero6):
     return 0.5 * acc
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def check_state(pm, pws, x, n, q_lo, q_hi, ke_max, check_energy, tmp, zero6):
     """(status, joint) of the divergence checks on x (0 when fine)."""
     for i in range(x.shape[0]):
@@ -119,7 +119,7 @@ def check_state(pm, pws, x, n, q_lo, q_hi, ke_max, check_energy, tmp, zero6):
     return 0, -1
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def log_row(row, t, x, n, sc, out):
     tau_c, tau_a, tau_d, tau_p, h_e, zdot, sig, Rf, pf, Re, pe, J, ve, qdd = sc
     o_t, o_q, o_qd, o_qdd, o_tau, o_z, o_sig, o_cmd, o_dist, o_he = out
@@ -144,21 +144,27 @@ def rk4_run(pm, cparams, eparams, dist, x0, fset, iset, lim, q_lo, q_hi, out):
     """Fixed-step RK4 closed loop (S3).  Returns (status, rows written, step, joint).
 
     fset = [t0, dt, ke_max]; iset = [n, n_steps, every, log_every, has_env, energy_every,
-    sampled, sig_width].
+    sampled, sig_width].  Allocates the scratch memory, then runs ``rk4_core``.
     """
+    n = iset[0]
+    m = x0.shape[0]
+    pws = make_workspace(n)
+    sc = make_scratch(n, m - 2 * n, iset[7])
+    return rk4_core(pm, pws, cparams, eparams, dist, x0.copy(), np.zeros(m), np.zeros((4, m)),
+                    np.zeros(n), np.zeros(6), sc, fset, iset, lim, q_lo, q_hi, out)
+
+
+# The loop never allocates, so it runs without reference counting (no atomic increments for
+# every array taken out of the parameter tuples at every call).
+@njit(cache=True, nogil=True, _nrt=False)
+def rk4_core(pm, pws, cparams, eparams, dist, x, xt, K, tmp, zero6, sc, fset, iset, lim, q_lo, q_hi,
+             out):
     t0, dt, ke_max = fset[0], fset[1], fset[2]
     n, n_steps, every, log_every = iset[0], iset[1], iset[2], iset[3]
-    has_env, energy_every, sampled, width = iset[4] != 0, iset[5], iset[6] != 0, iset[7]
-    m = x0.shape[0]
+    has_env, energy_every, sampled = iset[4] != 0, iset[5], iset[6] != 0
+    m = x.shape[0]
     k = m - 2 * n
-    pws = make_workspace(n)
-    sc = make_scratch(n, k, width)
     zdot = sc[5]
-    x = x0.copy()
-    xt = np.zeros(m)
-    K = np.zeros((4, m))
-    tmp = np.zeros(n)
-    zero6 = np.zeros(6)
     z_rate = 0.0 if sampled else 1.0
     period = every * dt
     rows = 0
@@ -197,7 +203,7 @@ def rk4_run(pm, cparams, eparams, dist, x0, fset, iset, lim, q_lo, q_hi, out):
     return 0, rows, n_steps, -1
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def rhs(t, x, pm, pws, cparams, eparams, dist, has_env, call_law, z_rate, lim, sc, xdot):
     """ẋ for the adaptive integrator: the same ``stage`` as the RK4 loop; returns ok."""
     n = pm.mass.shape[0]
