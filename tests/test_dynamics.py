@@ -9,6 +9,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 from hypothesis import given, settings
+from numba import njit
 from scipy.integrate import solve_ivp
 
 import armlab
@@ -23,6 +24,7 @@ from armlab import (
     potential_energy,
 )
 from armlab.dynamics import SingularInertiaError
+from armlab.kernels.dynamics import forward_dynamics_into, make_workspace, rnea_into
 from armlab.kernels.kinematics import joint_frames_into
 from armlab.model.robot import Friction, Inertial, Joint, Link, Motor, Robot
 from strategies import robots, states
@@ -256,3 +258,24 @@ def test_massless_prismatic_tip_is_reported_as_singular():
     robot = Robot(name="massless", joints=(tip,), links=(Link(name="l", inertial=Inertial()),))
     with pytest.raises(SingularInertiaError, match="massless"):
         forward_dynamics(robot, np.zeros(1), np.zeros(1), np.ones(1))
+
+
+# --- use from compiled code ------------------------------------------------------------------
+
+@njit(cache=True)
+def _roundtrip_in_compiled_code(m, Q, QD, QDD, out):
+    ws = make_workspace(Q.shape[1])
+    h_e = np.zeros(6)
+    tau = np.empty(Q.shape[1])
+    for k in range(Q.shape[0]):
+        rnea_into(m, ws, Q[k], QD[k], QDD[k], 1.0, h_e, tau)
+        forward_dynamics_into(m, ws, Q[k], QD[k], tau, h_e, out[k])
+
+
+def test_kernels_run_inside_compiled_code_with_one_workspace():
+    robot = armlab.load_robot("prp_actuated")
+    rng = np.random.default_rng(5)
+    Q, QD, QDD = rng.uniform(-0.1, 0.1, (3, 50, robot.n))
+    out = np.empty_like(Q)
+    _roundtrip_in_compiled_code(robot.arrays, Q, QD, QDD, out)
+    np.testing.assert_allclose(out, QDD, rtol=1e-9, atol=1e-12)
