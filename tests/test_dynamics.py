@@ -256,7 +256,7 @@ def test_wrong_shapes_name_the_argument():
 def test_massless_prismatic_tip_is_reported_as_singular():
     tip = Joint(name="slide", kind="prismatic", before=np.eye(4), after=np.eye(4))
     robot = Robot(name="massless", joints=(tip,), links=(Link(name="l", inertial=Inertial()),))
-    with pytest.raises(SingularInertiaError, match="massless"):
+    with pytest.raises(SingularInertiaError, match="not positive definite"):
         forward_dynamics(robot, np.zeros(1), np.zeros(1), np.ones(1))
 
 
