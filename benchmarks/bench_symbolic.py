@@ -96,9 +96,11 @@ def naive_christoffel(joints: int = 6):
     from armlab.symbolic.simplify import count_ops
 
     puma = armlab.load_robot("puma560")
-    arm = Robot(name="puma_arm", joints=puma.joints[:joints], links=puma.links[:joints],
-                gravity=puma.gravity)
-    sr = symbolic_robot(arm)
+    if joints == puma.n:
+        sr = symbolic_robot(puma)  # the same symbols as the recursive route
+    else:
+        sr = symbolic_robot(Robot(name="puma_arm", joints=puma.joints[:joints],
+                                  links=puma.links[:joints], gravity=puma.gravity))
     n = sr.n
     start = time.perf_counter()
     T = sp.eye(4)
