@@ -58,7 +58,7 @@ def test_compliance_equilibrium_is_the_closed_form_direction_by_direction():
     x_r = np.concatenate((R0.T @ (P0 - goal), np.zeros(3)))         # Σ_r seen from Σ_d
     K = spring.stiffness
     x_closed = np.linalg.solve(kp + K, kp @ np.zeros(6) + K @ x_r)  # x_d = 0 in Σ_d
-    x_e = result.signals["x_e"][-1]
+    x_e = result.signals["x"][-1]
     np.testing.assert_allclose(x_e, x_closed, atol=1e-7)
     p_e = goal + R0 @ x_e[:3]
     assert p_e[2] == pytest.approx(goal[2], abs=1e-7)                  # soft along z_0: reaches z_d
@@ -143,21 +143,21 @@ def test_force_control_inner_position_loop_reaches_fd_and_drifts_towards_the_ori
     common = dict(kd=np.diag([20.0, 20.0, 20.0]), kf=1e-4, ki=2e-3, x_F0=[0.0, -0.2, 0.0])
     drift = ForceControl(PRP, F_DES, kp=100.0, inner="position", **common)
     result = simulate(PRP, drift, q0=Q0, t_final=6.0, dt=1e-3, environment=_floor())
-    assert result.signals["f_e"][-1] == pytest.approx([0.0, -0.5, 0.0], abs=1e-3)
-    z = result.signals["p_e"][:, 2]
+    assert result.signals["h_e"][-1, :3] == pytest.approx([0.0, -0.5, 0.0], abs=1e-3)
+    z = result.signals["p"][:, 2]
     assert z[0] == pytest.approx(0.5) and z[-1] < 0.01 and np.all(np.diff(z) <= 1e-12)
     fixed = ForceControl(PRP, F_DES, kp=np.diag([0.0, 100.0, 0.0]), inner="position",
                          **{**common, "kd": np.diag([0.0, 20.0, 0.0])})
     result = simulate(PRP, fixed, q0=Q0, t_final=6.0, dt=1e-3, environment=_floor())
-    assert result.signals["f_e"][-1] == pytest.approx([0.0, -0.5, 0.0], abs=1e-3)
-    assert result.signals["p_e"][-1] == pytest.approx([0.0, -0.2005, 0.5], abs=1e-5)
+    assert result.signals["h_e"][-1, :3] == pytest.approx([0.0, -0.5, 0.0], abs=1e-3)
+    assert result.signals["p"][-1] == pytest.approx([0.0, -0.2005, 0.5], abs=1e-5)
 
 
 def test_force_control_inner_velocity_loop_reaches_fd_without_drift():
     controller = ForceControl(PRP, F_DES, kp=100.0, kd=20.0, kf=4e-4, inner="velocity")
     result = simulate(PRP, controller, q0=Q0, t_final=6.0, dt=1e-3, environment=_floor())
-    assert result.signals["f_e"][-1] == pytest.approx([0.0, -0.5, 0.0], abs=1e-4)
-    assert result.signals["p_e"][-1] == pytest.approx([0.0, -0.2005, 0.5], abs=1e-6)
+    assert result.signals["h_e"][-1, :3] == pytest.approx([0.0, -0.5, 0.0], abs=1e-4)
+    assert result.signals["p"][-1] == pytest.approx([0.0, -0.2005, 0.5], abs=1e-6)
 
 
 def test_parallel_force_position_meets_fd_and_xd_on_the_unconstrained_directions():
@@ -165,7 +165,7 @@ def test_parallel_force_position_meets_fd_and_xd_on_the_unconstrained_directions
     controller = ParallelForcePosition(PRP, F_DES, kp=100.0, kd=20.0, kf=1e-4, ki=2e-3,
                                        reference=PoseReference.constant(x_d, R0))
     result = simulate(PRP, controller, q0=Q0, t_final=8.0, dt=1e-3, environment=_floor())
-    f_e, p_e = result.signals["f_e"][-1], result.signals["p_e"][-1]
+    f_e, p_e = result.signals["h_e"][-1, :3], result.signals["p"][-1]
     assert f_e == pytest.approx([0.0, -0.5, 0.0], abs=1e-5)          # zero steady-state force error
     assert p_e[0] == pytest.approx(0.0, abs=1e-9) and p_e[2] == pytest.approx(0.4, abs=1e-6)
     assert p_e[1] == pytest.approx(-0.2005, abs=1e-6)                 # y_d is not reached (constrained)
@@ -183,4 +183,43 @@ def test_parallel_force_outside_image_of_K_ends_in_divergence_not_nan():
     partial = info.value.result
     assert partial.status == "diverged" and partial.t[-1] < 10.0
     assert np.all(np.isfinite(partial.q)) and np.all(np.isfinite(partial.tau))
-    assert partial.signals["f_e"][-1, 1] == pytest.approx(-0.5, abs=0.02)   # y still regulated
+    assert partial.signals["h_e"][-1, 1] == pytest.approx(-0.5, abs=0.02)   # y still regulated
+
+
+# ------------------------------------------------------------------ bundled A9–A15 scenarios
+
+from armlab.interaction_scenarios import (  # noqa: E402
+    interaction_scenario_names,
+    load_interaction_scenario,
+)
+
+
+def test_every_assignment_from_a9_to_a15_has_scenarios():
+    names = interaction_scenario_names()
+    for prefix in ("a09_", "a10_", "a11_", "a12_", "a13_", "a14_", "a15_"):
+        assert any(name.startswith(prefix) for name in names), prefix
+
+
+@pytest.mark.parametrize("name", interaction_scenario_names())
+def test_bundled_interaction_scenario_runs_shortened(name):
+    scenario = load_interaction_scenario(name)
+    assert scenario.assignment.startswith("A") and scenario.description
+    result = scenario.run(t_final=0.2)
+    assert result.status == "ok" and result.t[-1] == pytest.approx(0.2)
+    assert np.all(np.isfinite(result.q)) and np.all(np.isfinite(result.tau))
+    assert result.meta["scenario"] == name
+
+
+def test_scenario_file_errors_name_the_field(tmp_path):
+    from armlab.scenarios import ScenarioFileError
+
+    source = load_interaction_scenario("a11_compliance").source
+    text = open(source, encoding="utf-8").read()
+    for old, new, field in (('type = "spring"', 'type = "sponge"', "environment.type"),
+                            ("kp = [20, 10, 20, 50, 50, 50]", "kp = [20, 10]", "controller"),
+                            ("stiffness = [0, 0, 1e4, 10, 0, 0]", "stiffness = [0, 0, -1e4, 10, 0, 0]",
+                             "environment")):
+        path = tmp_path / "bad.toml"
+        path.write_text(text.replace(old, new), encoding="utf-8")
+        with pytest.raises(ScenarioFileError, match=f"bad.toml: {field}"):
+            load_interaction_scenario(path)

@@ -131,7 +131,7 @@ def test_operational_pd_with_the_full_6d_task_regulates_to_the_goal():
                                task=(0, 1, 2, 3, 4, 5), angle_reference=SEED_ANGLES)
     result = simulate(robot, controller, q0=[0.1, 0.0, 0.0], t_final=6.0, dt=1e-3)
     np.testing.assert_allclose(result.q[-1], [0.0, 0.0, 0.1], atol=1e-6)
-    np.testing.assert_allclose(result.signals["x_e"][-1], [0.0, -0.1, 0.4, *SEED_ANGLES], atol=1e-6)
+    np.testing.assert_allclose(result.signals["x"][-1], [0.0, -0.1, 0.4, *SEED_ANGLES], atol=1e-6)
     assert np.abs(result.signals["x_err"][0]).max() == pytest.approx(0.1)
     assert controller.check(result) == []
 
@@ -167,7 +167,7 @@ def test_near_singular_goal_is_logged_and_warned():
     goal = PoseReference.from_pose_vectors([0.0], [[0.0, -0.01, 0.4, *SEED_ANGLES]])
     controller = OperationalPD(robot, goal, kp=100.0, kd=30.0, angle_reference=SEED_ANGLES)
     result = simulate(robot, controller, q0=[0.1, 0.0, 0.0], t_final=4.0, dt=1e-3)
-    assert result.signals["sigma"][-1, -1] == pytest.approx(0.01, abs=1e-4)
+    assert result.signals["jacobian_sv"][-1, -1] == pytest.approx(0.01, abs=1e-4)
     assert abs(result.signals["det_JP"][-1, 0]) == pytest.approx(0.01, abs=1e-4)
     with pytest.warns(SingularityWarning, match="near singular"):
         controller.check(result)

@@ -225,11 +225,10 @@ def force_motion_law(t, q, qd, z, h_e, params, tau_out, zdot_out, signals_out):
     solve_and_apply(m, dws, ws, q, qd, h_e, True, tau_out)
     for i in range(3):
         signals_out[i] = f_d[i]
-        signals_out[3 + i] = h_e[i]
-        signals_out[6 + i] = x_f[i]
-        signals_out[9 + i] = ws.p_e[i]
-        signals_out[12 + i] = ws.frame[i]
-    log_task_signals(ws, task, signals_out, 15)
+        signals_out[3 + i] = x_f[i]
+        signals_out[6 + i] = ws.p_e[i]
+        signals_out[9 + i] = ws.frame[i]
+    log_task_signals(ws, task, signals_out, 12)
 
 
 INNER_LOOPS = ("position", "velocity")
@@ -285,10 +284,9 @@ class _ForceBase(Controller):
     def signals(self) -> tuple[Signal, ...]:
         xyz = ("x", "y", "z")
         n = self.model.n
-        return (Signal("f_des", xyz, ("N",) * 3), Signal("f_e", xyz, ("N",) * 3),
-                Signal("x_F", xyz, ("m",) * 3), Signal("p_e", xyz, ("m",) * 3),
-                Signal("p_des", xyz, ("m",) * 3),
-                Signal("sigma", tuple(f"sigma{i + 1}" for i in range(n)), ("",) * n),
+        return (Signal("f_des", xyz, ("N",) * 3), Signal("x_F", xyz, ("m",) * 3),
+                Signal("p", xyz, ("m",) * 3), Signal("p_des", xyz, ("m",) * 3),
+                Signal("jacobian_sv", tuple(f"sigma{i + 1}" for i in range(n)), ("",) * n),
                 Signal("det_JP", ("det",), ("",)))
 
     def describe(self) -> dict:

@@ -12,7 +12,7 @@ A robot with fewer than six joints cannot follow a 6-D task: ``task`` selects th
 of x controlled (default: position, (0, 1, 2)); gains are k × k (or 6 × 6 / 6-vectors, sliced
 to the task).  Where a law must invert the k × n task Jacobian J_s it uses its exact inverse
 when k = n and ``damping`` = 0, else the damped least-squares y = (J_sᵀJ_s + λ²I)⁻¹J_sᵀ r (T5).
-Every controller logs the singular values σ of J_s (``sigma``) and the seed's det J_P
+Every controller logs the singular values σ of J_s (``jacobian_sv``) and the seed's det J_P
 (``det_JP``, 3-joint robots); :meth:`TaskController.check` warns (``SingularityWarning``) when
 σ_min fell below ``singular_warning``.
 """
@@ -143,9 +143,10 @@ class TaskController(Controller):
         units6 = ("m",) * 3 + (angle_unit,) * 3
         n = self.model.n
         return (Signal("x_err", COMPONENT_LABELS, units6),
-                Signal("x_e", COMPONENT_LABELS, units6),
+                Signal("x", COMPONENT_LABELS, units6),
+                Signal("p", ("x", "y", "z"), ("m",) * 3),
                 Signal("p_des", ("x", "y", "z"), ("m",) * 3),
-                Signal("sigma", tuple(f"sigma{i + 1}" for i in range(n)), ("",) * n),
+                Signal("jacobian_sv", tuple(f"sigma{i + 1}" for i in range(n)), ("",) * n),
                 Signal("det_JP", ("det",), ("",)))
 
     def signals(self) -> tuple[Signal, ...]:
@@ -155,7 +156,7 @@ class TaskController(Controller):
         """Warn (``SingularityWarning``) if σ_min of the task Jacobian went below
         ``singular_warning`` during ``result``; returns the messages."""
         messages = []
-        sigma = result.signals.get("sigma")
+        sigma = result.signals.get("jacobian_sv")
         if sigma is not None and sigma.shape[0]:
             low = sigma[:, self.k - 1] if self.k <= sigma.shape[1] else sigma[:, -1]
             index = int(np.argmin(low))
@@ -178,13 +179,14 @@ class TaskController(Controller):
 
 @njit(cache=True)
 def log_pose_signals(ws, signals_out):
-    """x_err (6), x_e (6), p_des (3), then σ and det_JP; returns the next free index."""
+    """x_err (6), x (6), p (3), p_des (3) before σ and det_JP; returns the next free index."""
     for i in range(6):
         signals_out[i] = ws.x_err[i]
         signals_out[6 + i] = ws.x_e[i]
     for i in range(3):
-        signals_out[12 + i] = ws.frame[i]
-    return 15
+        signals_out[12 + i] = ws.p_e[i]
+        signals_out[15 + i] = ws.frame[i]
+    return 18
 
 
 @njit(cache=True)
