@@ -52,9 +52,11 @@ PARAMETER_NAMES = ("m", "mcx", "mcy", "mcz", "Ixx", "Ixy", "Ixz", "Iyy", "Iyz", 
 # Allocation-free compiled code runs without reference counting (``_nrt=False``): with it,
 # every array taken out of a parameter tuple costs an atomic increment and decrement.
 kernel = njit(cache=True, _nrt=False)
+# The seed link's law is small: inlined into the loop that calls it.
+law_kernel = njit(cache=True, _nrt=False, inline="always")
 
 
-@kernel
+@law_kernel
 def slotine_li_1dof_law(t, q, qd, z, h_e, params, tau_out, zdot_out, signals_out):
     """(C4), (C5) with the seed's regressor (C7); z = π̂ = [Î, F̂, Ĝ]."""
     ref, kd, lam, gamma, q_des, qd_des, qdd_des, Y = params

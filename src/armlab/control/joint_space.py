@@ -42,12 +42,13 @@ def _check_reference(reference, n, field="reference"):
         raise ProtocolError(f"{field}: has {reference.n} components, the model {n} joints")
 
 
-# Allocation-free compiled code runs without reference counting (``_nrt=False``): with it,
-# every array taken out of a parameter tuple costs an atomic increment and decrement.
-kernel = njit(cache=True, _nrt=False)
+# The laws never allocate, so they run without reference counting (``_nrt=False``: no atomic
+# increment and decrement for every array taken out of ``params``), and they are inlined into
+# the loop that calls them (no call boundary passing the robot's arrays by value).
+law_kernel = njit(cache=True, _nrt=False, inline="always")
 
 
-@kernel
+@law_kernel
 def joint_pd_gravity_law(t, q, qd, z, h_e, params, tau_out, zdot_out, signals_out):
     """(C1): τ = ĝ(q_g) + K_P (q_des − q) − K_D q̇, q_g per compensation mode."""
     m, ws, ref, kp, kd, mode, q_des, qd_des, qdd_des, g = params
@@ -112,7 +113,7 @@ class JointPDGravity(Controller):
                 Signal.joint("g_comp", self.model, "effort"))
 
 
-@kernel
+@law_kernel
 def joint_inverse_dynamics_law(t, q, qd, z, h_e, params, tau_out, zdot_out, signals_out):
     """(C2): τ = B̂(q) y + n̂(q, q̇), y = q̈_des + K_D (q̇_des − q̇) + K_P (q_des − q)."""
     m, ws, ref, kp, kd, q_des, qd_des, qdd_des, y, zero6 = params

@@ -55,7 +55,7 @@ def make_scratch(n, k, s):
             np.zeros((6, n)), np.zeros(6), np.zeros(n))
 
 
-@njit(cache=True, _nrt=False)
+@njit(cache=True, _nrt=False, inline="always")
 def stage(t, x, n, pm, pws, cparams, eparams, dist, has_env, call_law, z_rate, lim, sc, xdot):
     """ẋ at (t, x) (S1, S2); returns False if B(q) is not positive definite."""
     tau_c, tau_a, tau_d, tau_p, h_e, zdot, sig, Rf, pf, Re, pe, J, ve, qdd = sc
