@@ -20,6 +20,8 @@ def test_every_seed_experiment_has_a_scenario():
     assert mismatch.controller.model.links[2].inertial.mass == 0.16
     assert mismatch.plant.links[2].inertial.mass == 0.2
     assert load_scenario("a8_case1_sine").simulation["t_final"] == 50.0
+    truth = load_scenario("a8_case1_sine").run(t_final=0.1).meta["true_parameters"]
+    np.testing.assert_allclose(truth, [0.1, 0.05, -0.981], atol=1e-12)
 
 
 @pytest.mark.parametrize("name", JOINT_SPACE)

@@ -165,6 +165,11 @@ class Scenario:
         settings.update(overrides)
         meta = {"scenario": self.name, "title": self.title, "assignment": self.assignment,
                 "description": self.description, "source": self.source}
+        if isinstance(self.controller, SlotineLi1DoF):
+            # What the seed plots but the controller cannot know: the plant's [I, F, G].
+            from armlab.control.adaptive import link1_parameters
+
+            meta["true_parameters"] = link1_parameters(self.plant).tolist()
         return simulate(self.plant, self.controller, disturbance=list(self.disturbance) or None,
                         meta=meta, **settings)
 
