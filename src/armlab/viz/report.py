@@ -189,7 +189,8 @@ def _experiment_html(exp: Experiment) -> str:
     if exp.metrics:
         headers, rows = metric_table(exp.metrics)
         tables.append(html.table(headers, rows, numeric=set(range(1, len(headers))),
-                                 caption=f"measured on the run ({exp.seconds:.1f} s wall time)"))
+                                 caption=f"measured on the run (simulated in {exp.seconds:.1f} s wall time, "
+                                         "compilation included)"))
     parts.append('<div class="tables">' + "".join(tables) + "</div>")
     result = exp.result
     if exp.error:
@@ -233,7 +234,7 @@ def evaluate(exp: Experiment) -> Experiment:
         except Exception as error:  # the report lists a broken scenario instead of dying
             exp.error = f"{type(error).__name__}: {error}"
             traceback.print_exc()
-    exp.seconds = time.perf_counter() - started
+        exp.seconds = time.perf_counter() - started
     if exp.result is not None and len(exp.result.t) >= 2:
         exp.metrics = measure(exp.result)
         exp.figures = _scope_figures(exp)
