@@ -66,21 +66,6 @@ def environment_plane(environment) -> Plane | None:
     return Plane(tuple(rest), tuple(R_r @ vectors[:, int(np.argmax(values))]))
 
 
-def true_parameters(scenario) -> np.ndarray | None:
-    """The plant's true parameter vector π for an adaptive controller's estimates π̂ (the
-    estimate of the plant the scenario simulates, which the controller never sees); None for
-    other controllers."""
-    try:
-        from armlab.control import adaptive
-    except ImportError:
-        return None
-    if isinstance(scenario.controller, adaptive.SlotineLi1DoF):
-        return adaptive.link1_parameters(scenario.plant)
-    if isinstance(scenario.controller, adaptive.SlotineLi):
-        return adaptive.standard_parameters(scenario.plant)
-    return None
-
-
 def _registry():
     try:
         import armlab.scenarios as registry
@@ -106,13 +91,8 @@ def experiment_from_scenario(scenario, t_final: float | None = None) -> Experime
     full = float(scenario.simulation["t_final"])
     short = t_final if t_final is not None and t_final < full else None
 
-    truth = true_parameters(scenario)
-
     def runner():
-        result = scenario.run(t_final=short, on_divergence="return")
-        if truth is not None:
-            result.meta["true_parameters"] = truth.tolist()
-        return result
+        return scenario.run(t_final=short, on_divergence="return")
 
     parameters = scenario_parameters(scenario.source) if scenario.source else []
     if short is not None:
