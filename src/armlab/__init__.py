@@ -3,6 +3,13 @@
 Conventions (frames, twist and wrench ordering, Euler angles, units): ``docs/notation.md``.
 """
 
+from armlab.control.interaction import AdmittanceControl as AdmittanceControl
+from armlab.control.interaction import ComplianceControl as ComplianceControl
+from armlab.control.interaction import ForceControl as ForceControl
+from armlab.control.interaction import ImpedanceControl as ImpedanceControl
+from armlab.control.interaction import ParallelForcePosition as ParallelForcePosition
+from armlab.control.task_space import OperationalInverseDynamics as OperationalInverseDynamics
+from armlab.control.task_space import OperationalPD as OperationalPD
 from armlab.dynamics import coriolis_matrix as coriolis_matrix
 from armlab.dynamics import forward_dynamics as forward_dynamics
 from armlab.dynamics import gravity_torque as gravity_torque
@@ -10,6 +17,9 @@ from armlab.dynamics import inertia_matrix as inertia_matrix
 from armlab.dynamics import inverse_dynamics as inverse_dynamics
 from armlab.dynamics import kinetic_energy as kinetic_energy
 from armlab.dynamics import potential_energy as potential_energy
+from armlab.environment import FreeSpace as FreeSpace
+from armlab.environment import PlanarWall as PlanarWall
+from armlab.environment import Spring as Spring
 from armlab.inverse_kinematics import UnreachableTargetError as UnreachableTargetError
 from armlab.inverse_kinematics import inverse_kinematics as inverse_kinematics
 from armlab.kinematics import analytic_jacobian as analytic_jacobian
@@ -27,6 +37,8 @@ from armlab.simulation import SimulationDiverged as SimulationDiverged
 from armlab.simulation import simulate as simulate
 from armlab.simulation import simulate_batch as simulate_batch
 from armlab.spatial import RepresentationSingularityError as RepresentationSingularityError
+from armlab.task_references import ForceReference as ForceReference
+from armlab.task_references import PoseReference as PoseReference
 
 __version__ = "0.1.0"
 
