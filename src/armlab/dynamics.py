@@ -11,12 +11,26 @@ in Σ_0, with μ_e about Σ_e's origin.  Units SI; q̇ [m/s | rad/s], τ [N | N�
 
 Each function is a thin, checked wrapper of a compiled kernel of
 :mod:`armlab.kernels.dynamics`; compiled code (simulation loops) calls those kernels directly.
+Every call returns a new array (never one shared with another call).
+
+Why the wrappers look the way they do (one call costs about a microsecond, so the Python side
+matters as much as the arithmetic):
+
+* the robot travels as **one** float64 array (its packed model, a scratch workspace and a zero
+  wrench, see :func:`_pack`), kept in the robot's instance dictionary: unboxing an array
+  argument costs ~0.1 µs, and the robot and workspace hold 35 arrays;
+* each compiled entry has **one** signature (writeable, C-contiguous float64 vectors) and may
+  not compile another: the numba dispatcher's type check is then the whole input check of
+  the common call, and any other input (a list, another dtype or layout, a read-only array)
+  raises ``TypeError`` there, is converted (with a one-line error naming the field when it
+  cannot be) and tried again.  Wrong lengths are caught inside the entry, which returns a
+  status instead of touching memory.
 """
 
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from numba import njit, types
 
 from armlab.errors import ArmlabError
 from armlab.kernels.dynamics import (
@@ -30,98 +44,164 @@ from armlab.kernels.dynamics import (
     workspace_from_buffer,
     workspace_size,
 )
-from armlab.kernels.packed import pack_robot, unpack_robot
+from armlab.kernels.packed import buffer_view, pack_robot, unpack_robot
 from armlab.model.robot import Robot
 
 _CACHE_KEY = "_dynamics_packed"
-_FLOAT = np.dtype(np.float64)
-# Writeable (never written) so that it has the same numba type as a caller's h_e.
-_NO_WRENCH = np.zeros(6)
 
 
 class SingularInertiaError(ArmlabError):
     """B(q) is not positive definite (a link without mass moved by a joint)."""
 
 
-def _packed(robot: Robot):
-    """(joint_type, data, workspace buffer) of ``robot``: its arrays packed for cheap calls and
-    a scratch buffer, kept in the robot's instance dictionary next to ``robot.arrays`` (a
-    plain attribute lookup; a weak-key dictionary costs more than the dynamics of a small
-    arm).  The packed arrays depend only on the immutable robot; every kernel writes the
-    scratch it reads first, so sharing the buffer between calls (serialised by the GIL, which
-    the kernels keep) cannot change a result."""
-    packed = robot.__dict__.get(_CACHE_KEY)
-    if packed is None:
+# Layout of the packed robot: [n | joint_type (n, int64 bits) | zero wrench (6) | workspace |
+# the float fields of RobotArrays (pack_robot)].
+_HEAD = 7
+
+
+def _pack(robot: Robot):
+    """(packed, n) of ``robot``, made once and kept in the robot's instance dictionary next to
+    ``robot.arrays`` (a plain attribute lookup; a weak-key dictionary costs more than the
+    dynamics of a small arm).  The model part depends only on the immutable robot; every
+    kernel writes the scratch it reads first, so sharing the workspace between calls
+    (serialised by the GIL, which the kernels keep) cannot change a result."""
+    cached = robot.__dict__.get(_CACHE_KEY)
+    if cached is None:
         joint_type, data = pack_robot(robot.arrays)
-        packed = robot.__dict__[_CACHE_KEY] = (joint_type, data, np.zeros(workspace_size(robot.n)))
-    return packed
+        n = joint_type.shape[0]
+        packed = np.concatenate([[float(n)], joint_type.view(np.float64), np.zeros(6),
+                                 np.zeros(workspace_size(n)), data])
+        cached = robot.__dict__[_CACHE_KEY] = (packed, n)
+    return cached
 
 
-def _vector(robot: Robot, value, name: str) -> np.ndarray:
-    # Fast path first: a contiguous float64 vector of the right length goes to the kernel as it
-    # is (other layouts are copied, so the kernels compile for one array type only).
-    if (type(value) is np.ndarray and value.dtype is _FLOAT and value.shape == (len(robot.joints),)
-            and value.strides[0] == 8):
-        return value
-    array = np.ascontiguousarray(value, dtype=np.float64)
-    if array.shape != (robot.n,):
-        raise ValueError(f"{name} must have shape ({robot.n},) for robot {robot.name!r}, got {array.shape}")
-    return array
+@njit(cache=True, _nrt=False, inline="always")
+def _unpack(packed):
+    """(n, m, ws, zero wrench) from a packed robot (views, no copy)."""
+    n = int(packed[0])
+    joint_type = buffer_view(packed, 1, n, np.int64)
+    size = workspace_size(n)
+    ws = workspace_from_buffer(buffer_view(packed, _HEAD + n, size, np.float64), n)
+    start = _HEAD + n + size
+    m = unpack_robot(joint_type, buffer_view(packed, start, packed.shape[0] - start, np.float64))
+    return n, m, ws, buffer_view(packed, 1 + n, 6, np.float64)
 
 
-def _wrench(h_e) -> np.ndarray:
-    if h_e is None:
-        return _NO_WRENCH
-    array = np.ascontiguousarray(h_e, dtype=np.float64)
-    if array.shape != (6,):
-        raise ValueError(f"h_e must have shape (6,) = [f_e; μ_e], got {array.shape}")
-    return array
+_V = types.float64[::1]
+_M = types.float64[:, ::1]
 
 
-# Entry points from Python: the robot travels packed and the workspace is a view of one
-# buffer, so a call unboxes a handful of arrays instead of 35 (see kernels/packed.py).
-entry = njit(cache=True, _nrt=False)
+def _entry(*argtypes):
+    """A compiled Python entry point with exactly one signature, compiled (or loaded from the
+    disk cache) at its first call; see the module docstring."""
+    def wrap(function):
+        dispatcher = njit(cache=True, _nrt=False)(function)
+        # What disable_compile() sets; it refuses a dispatcher without a signature yet.
+        dispatcher._can_compile = False
+        dispatcher.signature = argtypes
+        return dispatcher
+    return wrap
 
 
-@entry
-def _rnea_entry(joint_type, data, buf, q, qd, qdd, gravity_scale, h_e, out):
-    n = q.shape[0]
-    rnea_into(unpack_robot(joint_type, data), workspace_from_buffer(buf, n), q, qd, qdd, gravity_scale,
-              h_e, out)
+def _ready(dispatcher) -> None:
+    if not dispatcher.overloads:
+        dispatcher.disable_compile(False)
+        dispatcher.compile(dispatcher.signature)
+        dispatcher.disable_compile()
 
 
-@entry
-def _mass_matrix_entry(joint_type, data, buf, q, out):
-    mass_matrix_into(unpack_robot(joint_type, data), workspace_from_buffer(buf, q.shape[0]), q, out)
+@_entry(_V, _V, _V, _V, _V)
+def _rnea_fast(packed, q, qd, qdd, out):
+    n, m, ws, zero_wrench = _unpack(packed)
+    if q.shape[0] != n or qd.shape[0] != n or qdd.shape[0] != n or out.shape[0] != n:
+        return False
+    rnea_into(m, ws, q, qd, qdd, 1.0, zero_wrench, out)
+    return True
 
 
-@entry
-def _gravity_entry(joint_type, data, buf, q, out):
-    gravity_into(unpack_robot(joint_type, data), workspace_from_buffer(buf, q.shape[0]), q, out)
+@_entry(_V, _V, _V, _V, types.float64, _V, _V)
+def _rnea_full(packed, q, qd, qdd, gravity_scale, h_e, out):
+    n, m, ws, _ = _unpack(packed)
+    if (q.shape[0] != n or qd.shape[0] != n or qdd.shape[0] != n or h_e.shape[0] != 6
+            or out.shape[0] != n):
+        return False
+    rnea_into(m, ws, q, qd, qdd, gravity_scale, h_e, out)
+    return True
 
 
-@entry
-def _coriolis_entry(joint_type, data, buf, q, qd, out):
-    coriolis_matrix_into(unpack_robot(joint_type, data), workspace_from_buffer(buf, q.shape[0]), q, qd,
-                         out)
+@_entry(_V, _V, _M)
+def _mass_matrix_entry(packed, q, out):
+    n, m, ws, _ = _unpack(packed)
+    if q.shape[0] != n or out.shape[0] != n or out.shape[1] != n:
+        return False
+    mass_matrix_into(m, ws, q, out)
+    return True
 
 
-@entry
-def _forward_entry(joint_type, data, buf, q, qd, tau, h_e, out):
-    return forward_dynamics_into(unpack_robot(joint_type, data), workspace_from_buffer(buf, q.shape[0]),
-                                 q, qd, tau, h_e, out)
+@_entry(_V, _V, _V)
+def _gravity_entry(packed, q, out):
+    n, m, ws, _ = _unpack(packed)
+    if q.shape[0] != n or out.shape[0] != n:
+        return False
+    gravity_into(m, ws, q, out)
+    return True
 
 
-@entry
-def _kinetic_entry(joint_type, data, buf, q, qd):
-    return kinetic_energy_kernel(unpack_robot(joint_type, data), workspace_from_buffer(buf, q.shape[0]),
-                                 q, qd)
+@_entry(_V, _V, _V, _M)
+def _coriolis_entry(packed, q, qd, out):
+    n, m, ws, _ = _unpack(packed)
+    if q.shape[0] != n or qd.shape[0] != n or out.shape[0] != n or out.shape[1] != n:
+        return False
+    coriolis_matrix_into(m, ws, q, qd, out)
+    return True
 
 
-@entry
-def _potential_entry(joint_type, data, buf, q):
-    return potential_energy_kernel(unpack_robot(joint_type, data), workspace_from_buffer(buf, q.shape[0]),
-                                   q)
+@_entry(_V, _V, _V, _V, _V, _V)
+def _forward_entry(packed, q, qd, tau, h_e, out):
+    """0: done, 1: a wrong length, 2: B not positive definite."""
+    n, m, ws, _ = _unpack(packed)
+    if (q.shape[0] != n or qd.shape[0] != n or tau.shape[0] != n or h_e.shape[0] != 6
+            or out.shape[0] != n):
+        return 1
+    return 0 if forward_dynamics_into(m, ws, q, qd, tau, h_e, out) else 2
+
+
+@_entry(_V, _V, _V)
+def _kinetic_entry(packed, q, qd):
+    """T, or NaN for a wrong length (told apart by the caller)."""
+    n, m, ws, _ = _unpack(packed)
+    if q.shape[0] != n or qd.shape[0] != n:
+        return np.nan
+    return kinetic_energy_kernel(m, ws, q, qd)
+
+
+@_entry(_V, _V)
+def _potential_entry(packed, q):
+    """U, or NaN for a wrong length (told apart by the caller)."""
+    n, m, ws, _ = _unpack(packed)
+    if q.shape[0] != n:
+        return np.nan
+    return potential_energy_kernel(m, ws, q)
+
+
+def _vector(robot: Robot, value, name: str, size: int | None = None) -> np.ndarray:
+    """``value`` as a writeable C-contiguous float64 vector of the expected length (copied
+    unless it already is one), or a one-line ValueError naming the field."""
+    size = robot.n if size is None else size
+    if not (type(value) is np.ndarray and value.dtype == np.float64 and value.flags.c_contiguous
+            and value.flags.writeable):
+        try:
+            value = np.array(value, dtype=np.float64)
+        except (TypeError, ValueError) as error:
+            raise ValueError(f"{name} must be a vector of {size} numbers: {error}") from None
+    if value.shape != (size,):
+        what = "= [f_e; μ_e]" if name == "h_e" else f"for robot {robot.name!r}"
+        raise ValueError(f"{name} must have shape ({size},) {what}, got {value.shape}")
+    return value
+
+
+def _vectors(robot: Robot, **named) -> list[np.ndarray]:
+    return [_vector(robot, value, name, 6 if name == "h_e" else None) for name, value in named.items()]
 
 
 def inverse_dynamics(robot: Robot, q, qd, qdd, h_e=None, gravity: bool = True) -> np.ndarray:
@@ -137,19 +217,40 @@ def inverse_dynamics(robot: Robot, q, qd, qdd, h_e=None, gravity: bool = True) -
         [N, N·m], μ_e about Σ_e's origin; None for free motion.
     gravity : include g(q) (False: g_0 = 0).
     """
-    joint_type, data, buf = _packed(robot)
-    tau = np.empty(robot.n)
-    _rnea_entry(joint_type, data, buf, _vector(robot, q, "q"), _vector(robot, qd, "qd"),
-                _vector(robot, qdd, "qdd"), 1.0 if gravity else 0.0, _wrench(h_e), tau)
+    packed, n = robot.__dict__.get(_CACHE_KEY) or _pack(robot)
+    tau = np.empty(n)
+    if h_e is None and gravity:
+        try:
+            ok = _rnea_fast(packed, q, qd, qdd, tau)
+        except TypeError:
+            _ready(_rnea_fast)
+            ok = _rnea_fast(packed, *_vectors(robot, q=q, qd=qd, qdd=qdd), tau)
+    else:
+        h = packed[1 + n:7 + n] if h_e is None else h_e
+        scale = 1.0 if gravity else 0.0
+        try:
+            ok = _rnea_full(packed, q, qd, qdd, scale, h, tau)
+        except TypeError:
+            _ready(_rnea_full)
+            q, qd, qdd, h = _vectors(robot, q=q, qd=qd, qdd=qdd, h_e=h)
+            ok = _rnea_full(packed, q, qd, qdd, scale, h, tau)
+    if not ok:
+        _vectors(robot, q=q, qd=qd, qdd=qdd, h_e=np.zeros(6) if h_e is None else h_e)
     return tau
 
 
 def inertia_matrix(robot: Robot, q) -> np.ndarray:
     """Joint-space inertia matrix B(q), (n, n), symmetric positive definite, rotors included
     (D2, D3), by the composite-rigid-body algorithm.  Units kg | kg·m | kg·m²."""
-    joint_type, data, buf = _packed(robot)
-    B = np.empty((robot.n, robot.n))
-    _mass_matrix_entry(joint_type, data, buf, _vector(robot, q, "q"), B)
+    packed, n = robot.__dict__.get(_CACHE_KEY) or _pack(robot)
+    B = np.empty((n, n))
+    try:
+        ok = _mass_matrix_entry(packed, q, B)
+    except TypeError:
+        _ready(_mass_matrix_entry)
+        ok = _mass_matrix_entry(packed, _vector(robot, q, "q"), B)
+    if not ok:
+        _vector(robot, q, "q")
     return B
 
 
@@ -160,17 +261,29 @@ def coriolis_matrix(robot: Robot, q, qd) -> np.ndarray:
 
     so that Ḃ − 2C is skew-symmetric (Siciliano et al. (7.49)).
     """
-    joint_type, data, buf = _packed(robot)
-    C = np.empty((robot.n, robot.n))
-    _coriolis_entry(joint_type, data, buf, _vector(robot, q, "q"), _vector(robot, qd, "qd"), C)
+    packed, n = robot.__dict__.get(_CACHE_KEY) or _pack(robot)
+    C = np.empty((n, n))
+    try:
+        ok = _coriolis_entry(packed, q, qd, C)
+    except TypeError:
+        _ready(_coriolis_entry)
+        ok = _coriolis_entry(packed, *_vectors(robot, q=q, qd=qd), C)
+    if not ok:
+        _vectors(robot, q=q, qd=qd)
     return C
 
 
 def gravity_torque(robot: Robot, q) -> np.ndarray:
     """Gravity torques g(q) = (∂U/∂q)ᵀ, (n,) [N | N·m], with U of (D7)."""
-    joint_type, data, buf = _packed(robot)
-    g = np.empty(robot.n)
-    _gravity_entry(joint_type, data, buf, _vector(robot, q, "q"), g)
+    packed, n = robot.__dict__.get(_CACHE_KEY) or _pack(robot)
+    g = np.empty(n)
+    try:
+        ok = _gravity_entry(packed, q, g)
+    except TypeError:
+        _ready(_gravity_entry)
+        ok = _gravity_entry(packed, _vector(robot, q, "q"), g)
+    if not ok:
+        _vector(robot, q, "q")
     return g
 
 
@@ -183,11 +296,18 @@ def forward_dynamics(robot: Robot, q, qd, tau, h_e=None) -> np.ndarray:
     :func:`inverse_dynamics`.  Raises :class:`SingularInertiaError` if B is not positive
     definite.
     """
-    joint_type, data, buf = _packed(robot)
-    qdd = np.empty(robot.n)
-    ok = _forward_entry(joint_type, data, buf, _vector(robot, q, "q"), _vector(robot, qd, "qd"),
-                        _vector(robot, tau, "tau"), _wrench(h_e), qdd)
-    if not ok:
+    packed, n = robot.__dict__.get(_CACHE_KEY) or _pack(robot)
+    qdd = np.empty(n)
+    h = packed[1 + n:7 + n] if h_e is None else h_e
+    try:
+        status = _forward_entry(packed, q, qd, tau, h, qdd)
+    except TypeError:
+        _ready(_forward_entry)
+        q, qd, tau, h = _vectors(robot, q=q, qd=qd, tau=tau, h_e=h)
+        status = _forward_entry(packed, q, qd, tau, h, qdd)
+    if status == 1:
+        _vectors(robot, q=q, qd=qd, tau=tau, h_e=h)
+    if status == 2:
         raise SingularInertiaError(f"robot {robot.name!r}: inertia matrix B(q) is not positive definite")
     return qdd
 
@@ -197,8 +317,10 @@ def kinetic_energy(robot: Robot, q, qd) -> float:
 
         T = Σ_i ½ m_i ‖ṗ_Ci‖² + ½ ω_iᵀ I_Ci ω_i + ½ I_mi (z_miᵀ ω_{i−1} + k_ri q̇_i)²       (D6)
     """
-    joint_type, data, buf = _packed(robot)
-    return float(_kinetic_entry(joint_type, data, buf, _vector(robot, q, "q"), _vector(robot, qd, "qd")))
+    packed, _ = robot.__dict__.get(_CACHE_KEY) or _pack(robot)
+    _ready(_kinetic_entry)
+    q, qd = _vectors(robot, q=q, qd=qd)
+    return float(_kinetic_entry(packed, q, qd))
 
 
 def potential_energy(robot: Robot, q) -> float:
@@ -206,5 +328,6 @@ def potential_energy(robot: Robot, q) -> float:
 
     Rotor masses are part of the link inertials, so this is the whole potential energy.
     """
-    joint_type, data, buf = _packed(robot)
-    return float(_potential_entry(joint_type, data, buf, _vector(robot, q, "q")))
+    packed, _ = robot.__dict__.get(_CACHE_KEY) or _pack(robot)
+    _ready(_potential_entry)
+    return float(_potential_entry(packed, _vector(robot, q, "q")))

@@ -50,6 +50,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
+from armlab.kernels.packed import buffer_view
 from armlab.model.robot import PRISMATIC
 
 # The kernels never allocate, so they run without reference counting: with it, every array
@@ -96,48 +97,53 @@ def workspace_size(n):
     return 45 * n + n * n + 9
 
 
-@njit(cache=True)
+# Inlined into its caller so that the views are reference-counted as the caller is: a
+# separately compiled helper inherits the reference-counting flag of whichever caller compiles
+# it first (numba's flag inheritance), and the one machine-code version would then be wrong for
+# the other kind of caller (missing increfs: freed memory; extra increfs: leaks).
+@njit(cache=True, inline="always")
 def workspace_from_buffer(buf, n):
     """A :class:`DynamicsWorkspace` whose arrays are views into ``buf`` (workspace_size(n),);
     one allocation serves every scratch array.  ``buf`` must be zero where ``zero`` lies."""
+    d = np.float64
     o = 0
-    R = buf[o:o + 9 * n].reshape((n, 3, 3))
+    R = buffer_view(buf, o, (n, 3, 3), d)
     o += 9 * n
-    p = buf[o:o + 3 * n].reshape((n, 3))
+    p = buffer_view(buf, o, (n, 3), d)
     o += 3 * n
-    w = buf[o:o + 3 * n].reshape((n, 3))
+    w = buffer_view(buf, o, (n, 3), d)
     o += 3 * n
-    wd = buf[o:o + 3 * n].reshape((n, 3))
+    wd = buffer_view(buf, o, (n, 3), d)
     o += 3 * n
-    a = buf[o:o + 3 * n].reshape((n, 3))
+    a = buffer_view(buf, o, (n, 3), d)
     o += 3 * n
-    f = buf[o:o + 3 * n].reshape((n, 3))
+    f = buffer_view(buf, o, (n, 3), d)
     o += 3 * n
-    mu = buf[o:o + 3 * n].reshape((n, 3))
+    mu = buffer_view(buf, o, (n, 3), d)
     o += 3 * n
-    Ic = buf[o:o + 9 * n].reshape((n, 3, 3))
+    Ic = buffer_view(buf, o, (n, 3, 3), d)
     o += 9 * n
-    hc = buf[o:o + 3 * n].reshape((n, 3))
+    hc = buffer_view(buf, o, (n, 3), d)
     o += 3 * n
-    mc = buf[o:o + n]
+    mc = buffer_view(buf, o, n, d)
     o += n
-    L = buf[o:o + n * n].reshape((n, n))
+    L = buffer_view(buf, o, (n, n), d)
     o += n * n
-    v1 = buf[o:o + n]
+    v1 = buffer_view(buf, o, n, d)
     o += n
-    v2 = buf[o:o + n]
+    v2 = buffer_view(buf, o, n, d)
     o += n
-    t1 = buf[o:o + n]
+    t1 = buffer_view(buf, o, n, d)
     o += n
-    t2 = buf[o:o + n]
+    t2 = buffer_view(buf, o, n, d)
     o += n
-    zero = buf[o:o + n]
+    zero = buffer_view(buf, o, n, d)
     o += n
-    R0 = buf[o:o + 9].reshape((3, 3))
+    R0 = buffer_view(buf, o, (3, 3), d)
     return DynamicsWorkspace(R, p, w, wd, a, f, mu, Ic, hc, mc, L, v1, v2, t1, t2, zero, R0)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=True)
 def make_workspace(n):
     """A :class:`DynamicsWorkspace` for an n-joint robot (one zeroed buffer)."""
     return workspace_from_buffer(np.zeros(workspace_size(n)), n)
