@@ -175,7 +175,9 @@ def _rnea_body(m, ws, q, qd, qdd, gravity_scale, h_e, with_wrench, with_friction
 
     Inlined into ``rnea_into`` (one call less per evaluation: a call passes m and ws
     flattened, ~300 machine words, which cost a 3-joint arm about a third of its time);
-    the other kernels share the separately compiled ``_rnea_core``."""
+    the other kernels share the separately compiled ``_rnea_core``.  ``with_wrench`` and
+    ``with_friction`` are 1.0 or 0.0, not booleans: a literal True/False would be part of the
+    compiled signature, so callers passing literals and computed flags compiled twice."""
     n = q.shape[0]
     R, p, w, wd, a, f, mu = ws.R, ws.p, ws.w, ws.wd, ws.a, ws.f, ws.mu
     # Forward: velocities and accelerations; the base accelerates by −g_0 so gravity acts
@@ -262,7 +264,7 @@ def _rnea_body(m, ws, q, qd, qdd, gravity_scale, h_e, with_wrench, with_friction
             tau_out[i] = kr * Im * sd
         else:
             tau_out[i] = 0.0
-    if with_wrench:
+    if with_wrench != 0.0:
         # The end effector pushes the environment with h_e: f_{n+1} = h_e, expressed in J_n.
         R0 = ws.R0
         for r in range(3):
@@ -309,7 +311,7 @@ def _rnea_body(m, ws, q, qd, qdd, gravity_scale, h_e, with_wrench, with_friction
             tau_out[i] += f[i, 2]
         else:
             tau_out[i] += mu[i, 2]
-        if with_friction:
+        if with_friction != 0.0:
             v = qd[i]
             tau_out[i] += m.viscous[i] * v
             if v > 0.0:
@@ -341,7 +343,7 @@ def rnea_into(m, ws, q, qd, qdd, gravity_scale, h_e, tau_out):
     q, qd, qdd (n,); h_e (6,) in Σ_0; tau_out (n,) [N | N·m].
     """
     local_transforms_into(m, q, ws.R, ws.p)
-    _rnea_body(m, ws, q, qd, qdd, gravity_scale, h_e, _has_wrench(h_e), True, tau_out)
+    _rnea_body(m, ws, q, qd, qdd, gravity_scale, h_e, 1.0 if _has_wrench(h_e) else 0.0, 1.0, tau_out)
 
 
 @kernel
@@ -349,14 +351,14 @@ def gravity_into(m, ws, q, g_out):
     """Gravity torque g(q) = ∂U/∂q, (n,) [N | N·m] (RNEA with q̇ = q̈ = 0)."""
     local_transforms_into(m, q, ws.R, ws.p)
     z = ws.zero
-    _rnea_core(m, ws, q, z, z, 1.0, ws.R0[0], False, False, g_out)
+    _rnea_core(m, ws, q, z, z, 1.0, ws.R0[0], 0.0, 0.0, g_out)
 
 
 @kernel
 def bias_into(m, ws, q, qd, h_e, out):
     """Everything but inertia: C q̇ + F_v q̇ + F_s sgn q̇ + g + Jᵀ h_e, (n,) (RNEA with q̈ = 0)."""
     local_transforms_into(m, q, ws.R, ws.p)
-    _rnea_core(m, ws, q, qd, ws.zero, 1.0, h_e, _has_wrench(h_e), True, out)
+    _rnea_core(m, ws, q, qd, ws.zero, 1.0, h_e, 1.0 if _has_wrench(h_e) else 0.0, 1.0, out)
 
 
 @kernel
@@ -485,11 +487,11 @@ def coriolis_matrix_into(m, ws, q, qd, C_out):
         for k in range(n):
             u[k] = qd[k] / norm
         u[j] += 1.0
-        _rnea_core(m, ws, q, u, ws.zero, 0.0, ws.R0[0], False, False, t1)
+        _rnea_core(m, ws, q, u, ws.zero, 0.0, ws.R0[0], 0.0, 0.0, t1)
         for k in range(n):
             u[k] = -qd[k] / norm
         u[j] += 1.0
-        _rnea_core(m, ws, q, u, ws.zero, 0.0, ws.R0[0], False, False, t2)
+        _rnea_core(m, ws, q, u, ws.zero, 0.0, ws.R0[0], 0.0, 0.0, t2)
         for r in range(n):
             C_out[r, j] = 0.25 * norm * (t1[r] - t2[r])
 
