@@ -34,6 +34,7 @@ import numpy as np  # noqa: E402
 from armlab.errors import ArmlabError  # noqa: E402
 
 MAX_POINTS = 1000
+ZERO = 1e-10  # SI magnitudes below this are rounding noise (no quantity here is that small)
 ACTUAL, DESIRED, LIMIT, COMMAND = "#1f5fd6", "#222222", "#d62728", "#f09030"
 GREEK = {"theta": "θ", "phi": "φ", "psi": "ψ", "alpha": "α", "beta": "β", "gamma": "γ",
          "tau": "τ", "sigma": "σ", "lambda": "λ", "omega": "ω", "mu": "μ", "pi": "π"}
@@ -268,6 +269,13 @@ def _scenario_name(result) -> str:
     return str(result.meta.get("scenario") or result.meta.get("name") or result.meta.get("plant", "run"))
 
 
+def _rounding_noise(panel: Panel) -> bool:
+    """True when every curve and line of ``panel`` stays below :data:`ZERO` in magnitude."""
+    values = [np.nanmax(np.abs(y)) for _, _, y, _ in panel.curves if np.any(np.isfinite(y))]
+    values += [abs(v) for v, _ in panel.hlines]
+    return bool(values) and max(values) < ZERO
+
+
 def render_scope(scope: Scope, *, title_prefix: str = "", diagnosis: str = ""):
     """A matplotlib Figure of ``scope``: one panel per row, shared time axis [s]."""
     rows = len(scope.panels)
@@ -279,12 +287,16 @@ def render_scope(scope: Scope, *, title_prefix: str = "", diagnosis: str = ""):
             ax.plot(td, yd, label=label, **style)
         for value, style in panel.hlines:
             ax.axhline(value, **style)
+        if _rounding_noise(panel):
+            # Values like 1e-16 are rounding noise; autoscaled they would look like a signal.
+            ax.set_ylim(-1.0, 1.0)
+        note = f"zero to rounding (|·| < {ZERO:g})" if _rounding_noise(panel) else panel.note
         ax.set_ylabel(panel.ylabel, fontsize=9)
         ax.grid(True, lw=0.4, alpha=0.6)
         ax.tick_params(labelsize=8)
         ax.margins(x=0)
-        if panel.note:
-            ax.text(0.99, 0.94, panel.note, transform=ax.transAxes, ha="right", va="top", fontsize=8,
+        if note:
+            ax.text(0.99, 0.94, note, transform=ax.transAxes, ha="right", va="top", fontsize=8,
                     bbox=dict(boxstyle="round,pad=0.2", fc="white", ec="0.8", alpha=0.85))
     for index, ax in enumerate(axes):
         # Panels of one scope share their curve names: one legend on the first panel is enough,
