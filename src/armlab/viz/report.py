@@ -2,7 +2,7 @@
 
 The document has one section per seed assignment that armlab can run for the chosen robot:
 
-* A1–A5 from :func:`armlab.symbolic.derive` (DH tables, transforms, Jacobians, energies,
+* A1–A5 from :func:`armlab.symbolic.sections.derive` (DH tables, transforms, Jacobians, energies,
   Lagrange and Newton–Euler dynamics, operational-space model) as presentation MathML, with
   the robot drawn with its frames in Σ_base and Σ_0 (the seed's plotTransforms check);
 * A6–A15 from the scenario registry: for every bundled scenario of the robot its description,
