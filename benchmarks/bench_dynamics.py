@@ -4,10 +4,15 @@
   ``forward_dynamics`` vs ``pinocchio.rnea`` / ``crba`` / ``aba``.
 * **Batched**: many states in one call — armlab's kernels in a compiled loop (what a
   simulation does) vs Pinocchio called in a Python loop (its Python API has no batch call).
-* **PRP inverse dynamics inside compiled code**: nanoseconds per evaluation of ``rnea_into``
-  in a compiled loop over many states (target ≤ 100 ns).
+* **PRP inverse dynamics inside compiled code**: nanoseconds per evaluation in a compiled loop
+  over many states (target ≤ 100 ns), for the general ``rnea_into``, the closed form generated
+  by ``armlab.symbolic`` and a hand-written closed form (the practical limit, ratio 1).
 * **Compile caching**: time to import armlab and make the first dynamics calls in a fresh
   process with an empty numba cache, then in a second process that loads the cache.
+
+Compiled loops are compiled without reference counting (``_nrt=False``), as the simulation
+loops are: with it, every row view ``Q[k]`` costs atomic increments and decrements, and the
+generated closed-form kernels (which reshape and slice) run several times slower.
 
 Both libraries get the same rigid-body model (motor rotors and friction removed: Pinocchio has
 no motor model), Pinocchio's from armlab's URDF export.  Times are the best of several
@@ -65,19 +70,19 @@ def _best_batch(f, states):
     return best / states
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _rnea_batch(m, ws, Q, QD, QDD, h_e, out):
     for k in range(Q.shape[0]):
         rnea_into(m, ws, Q[k], QD[k], QDD[k], 1.0, h_e, out[k])
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _crba_batch(m, ws, Q, out):
     for k in range(Q.shape[0]):
         mass_matrix_into(m, ws, Q[k], out[k])
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _aba_batch(m, ws, Q, QD, TAU, h_e, out):
     for k in range(Q.shape[0]):
         forward_dynamics_into(m, ws, Q[k], QD[k], TAU[k], h_e, out[k])
@@ -124,6 +129,21 @@ def _batch_pairs(pin, m, ws, h_e, model, data, Q, QD, QDD, QP, TAU, B, QDD_OUT):
     }
 
 
+@njit(cache=True, _nrt=False)
+def _touch(packed, q, qd, qdd, out):
+    out[0] = packed[0] + q[0] + qd[0] + qdd[0]
+
+
+def call_floor_us():
+    """µs of the bare mechanics of one wrapper call: a compiled function taking the wrapper's
+    five arrays (packed robot, q, q̇, q̈, fresh output) and doing nothing: what is left to
+    win on the Python side."""
+    robot = armlab.load_robot("prp")
+    packed = np.zeros(500)
+    q = np.zeros(robot.n)
+    return _best(lambda: _touch(packed, q, q, q, np.empty(3)), 20000) * 1e6
+
+
 def per_call_rows():
     import pinocchio as pin
 
@@ -165,16 +185,110 @@ def batch_rows(states=20000):
     return rows
 
 
-def prp_compiled_inverse_dynamics_ns(states=200000):
-    """ns per PRP inverse-dynamics evaluation (rnea_into, all terms) inside a compiled loop."""
+@njit(cache=True, _nrt=False)
+def _prp_closed_form_batch(k, Q, QD, QDD, out):
+    """Hand-written closed-form PRP inverse dynamics, the practical limit for one evaluation:
+
+        τ1 = b1 q̈1 + F_v1 q̇1 + F_s1 sgn q̇1
+        τ2 = (b2 + β q3²) q̈2 + 2β q3 q̇3 q̇2 − γ q3 sin q2 + F_v2 q̇2 + F_s2 sgn q̇2
+        τ3 = b3 q̈3 − β q3 q̇2² + γ cos q2 + F_v3 q̇3 + F_s3 sgn q̇3
+
+    (B diagonal, the Christoffel C of B22(q3), g from link 4's weight; the constants k =
+    [b1, b2, b3, β, γ, F_v1..3, F_s1..3] come from :func:`_prp_constants`)."""
+    b1, b2, b3, beta, gamma = k[0], k[1], k[2], k[3], k[4]
+    for i in range(Q.shape[0]):
+        q2, q3 = Q[i, 1], Q[i, 2]
+        v1, v2, v3 = QD[i, 0], QD[i, 1], QD[i, 2]
+        s, c = np.sin(q2), np.cos(q2)
+        out[i, 0] = b1 * QDD[i, 0] + k[5] * v1 + k[8] * np.sign(v1)
+        out[i, 1] = ((b2 + beta * q3 * q3) * QDD[i, 1] + 2.0 * beta * q3 * v3 * v2 - gamma * q3 * s
+                     + k[6] * v2 + k[9] * np.sign(v2))
+        out[i, 2] = b3 * QDD[i, 2] - beta * q3 * v2 * v2 + gamma * c + k[7] * v3 + k[10] * np.sign(v3)
+
+
+def _prp_constants(robot):
+    """The constants of :func:`_prp_closed_form_batch`, read from armlab's B and g at two
+    points (the closed form's structure is then checked on random states by the caller)."""
+    z = np.zeros(3)
+    B0 = armlab.inertia_matrix(robot, z)
+    beta = armlab.inertia_matrix(robot, np.array([0.0, 0.0, 1.0]))[1, 1] - B0[1, 1]
+    gamma = armlab.gravity_torque(robot, z)[2]
+    m = robot.arrays
+    return np.concatenate([[B0[0, 0], B0[1, 1], B0[2, 2], beta, gamma], m.viscous, m.coulomb])
+
+
+def _loop_over(rnea):
+    """A compiled loop calling ``rnea`` (a generated kernel, bound at compile time)."""
+    @njit(_nrt=False)
+    def loop(m, ws, Q, QD, QDD, h_e, out):
+        for k in range(Q.shape[0]):
+            rnea(m, ws, Q[k], QD[k], QDD[k], 1.0, h_e, out[k])
+    return loop
+
+
+def _symbolic_tau_loop(robot):
+    """τ = B q̈ + C q̇ + g as one SymPy vector from armlab.symbolic's derivation, lambdified
+    with common subexpressions and compiled; friction added in the loop."""
+    import sympy as sp
+
+    from armlab.symbolic.energy import inertia_matrix
+    from armlab.symbolic.lagrange import coriolis_matrix, gravity_vector
+    from armlab.symbolic.model import symbolic_robot
+
+    sr = symbolic_robot(robot, numeric=True)
+    values = sr.numeric_substitution()
+    q, qd = list(sr.q), list(sr.qd)
+    qdd = list(sp.symbols(f"qdd0:{sr.n}", real=True))
+    B, C, g = (sp.Matrix(M).xreplace(values) for M in
+               (inertia_matrix(sr), coriolis_matrix(sr), gravity_vector(sr)))
+    tau = B * sp.Matrix(qdd) + C * sp.Matrix(qd) + g.reshape(sr.n, 1)
+    evaluate = njit(sp.lambdify([q, qd, qdd], tuple(tau), modules="math", cse=True, docstring_limit=0))
+    viscous, coulomb, n = robot.arrays.viscous.copy(), robot.arrays.coulomb.copy(), sr.n
+
+    @njit(_nrt=False)
+    def loop(Q, QD, QDD, out):
+        for k in range(Q.shape[0]):
+            t = evaluate(Q[k], QD[k], QDD[k])
+            for i in range(n):
+                v = QD[k, i]
+                out[k, i] = t[i] + viscous[i] * v + coulomb[i] * np.sign(v)
+    return loop
+
+
+def prp_compiled_rows(states=200000):
+    """ns per PRP inverse-dynamics evaluation (prp_actuated: motors, friction) in a compiled
+    loop: armlab's general RNEA (``rnea_into``); the generated closed-form kernels
+    (``armlab.symbolic.closed_form_kernels(...).rnea_into``: B, C, g written into matrices, then
+    multiplied); armlab.symbolic's B q̈ + C q̇ + g as one compiled expression; and the
+    hand-written closed form (the practical limit)."""
+    from armlab.symbolic import closed_form_kernels
+
     robot = armlab.load_robot("prp_actuated")
     m, ws, h_e = robot.arrays, make_workspace(robot.n), np.zeros(6)
     Q, QD, QDD = _states(robot, states)
-    TAU = np.empty_like(Q)
-    return _best_batch(lambda: _rnea_batch(m, ws, Q, QD, QDD, h_e, TAU), states) * 1e9
+    TAU, TAU_HAND, TAU_GEN = np.empty_like(Q), np.empty_like(Q), np.empty_like(Q)
+    k = _prp_constants(robot)
+    generated = _loop_over(closed_form_kernels(robot).rnea_into)
+    symbolic = _symbolic_tau_loop(robot)
+    TAU_SYM = np.empty_like(Q)
+    _rnea_batch(m, ws, Q, QD, QDD, h_e, TAU)
+    _prp_closed_form_batch(k, Q, QD, QDD, TAU_HAND)
+    generated(m, ws, Q, QD, QDD, h_e, TAU_GEN)
+    symbolic(Q, QD, QDD, TAU_SYM)
+    for name, other in (("hand-written", TAU_HAND), ("generated", TAU_GEN), ("symbolic τ", TAU_SYM)):
+        if not np.allclose(other, TAU, rtol=1e-9, atol=1e-9):
+            raise AssertionError(f"{name} closed form disagrees with rnea_into: "
+                                 f"{np.abs(other - TAU).max():.3g}")
+    return [
+        ("rnea_into (general RNEA)", _best_batch(lambda: _rnea_batch(m, ws, Q, QD, QDD, h_e, TAU), states)),
+        ("closed_form_kernels", _best_batch(lambda: generated(m, ws, Q, QD, QDD, h_e, TAU_GEN), states)),
+        ("symbolic τ, one function", _best_batch(lambda: symbolic(Q, QD, QDD, TAU_SYM), states)),
+        ("hand-written closed form", _best_batch(
+            lambda: _prp_closed_form_batch(k, Q, QD, QDD, TAU_HAND), states)),
+    ]
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _reference_flops(X, out):
     for k in range(X.shape[0]):
         a, b, c = X[k, 0], X[k, 1], X[k, 2]
@@ -223,14 +337,20 @@ def main():
     print(f"{'robot':10s} {'algorithm':9s} {'armlab':>9s} {'pinocchio':>10s} {'ratio':>7s}")
     for name, algorithm, a, p, r in per_call_rows():
         print(f"{name:10s} {algorithm:9s} {a:9.2f} {p:10.2f} {r:7.2f}")
+    print(f"(floor: a compiled call with the wrapper's five array arguments doing nothing, "
+          f"fresh output included: {call_floor_us():.2f} µs)")
     print("\nBatched, 20000 states per call [ns per state] "
           "(armlab: compiled loop; Pinocchio: Python loop)")
     print(f"{'robot':10s} {'algorithm':9s} {'armlab':>9s} {'pinocchio':>10s} {'ratio':>7s}")
     for name, algorithm, a, p, r in batch_rows():
         print(f"{name:10s} {algorithm:9s} {a:9.0f} {p:10.0f} {r:7.3f}")
-    ns = prp_compiled_inverse_dynamics_ns()
-    print(f"\nPRP inverse dynamics (prp_actuated: motors, friction) inside compiled code: {ns:.0f} ns "
-          "per evaluation (target ≤ 100 ns)")
+    rows = prp_compiled_rows()
+    limit = rows[-1][1]
+    print("\nPRP inverse dynamics inside compiled code (prp_actuated: motors, friction), "
+          "200000 states [ns per evaluation] (target ≤ 100 ns)")
+    print(f"{'route':26s} {'ns':>7s} {'/ hand-written':>15s}")
+    for route, seconds in rows:
+        print(f"{route:26s} {seconds * 1e9:7.0f} {seconds / limit:15.2f}")
     print(f"Machine pace for reference: 300 floating-point operations take {reference_ns():.0f} ns "
           "in a compiled loop")
     cold, warm = compile_times()
