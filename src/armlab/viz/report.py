@@ -382,10 +382,11 @@ def _drawings_block(drawings: str) -> str:
 
 def _animation(planned: list[Experiment], out_dir: Path, robot_name: str) -> str:
     """A GIF of the most telling run of the report's robot (other robots if it has none): among
-    the runs with an environment plane (else all), the one whose joints travel furthest
-    relative to their ranges."""
+    the runs that did not diverge and have an environment plane (else all), the one whose
+    joints travel furthest relative to their ranges."""
     runs = [e for e in planned if e.result is not None and e.robot is not None and len(e.result.t) >= 2]
     runs = [e for e in runs if e.robot.name == robot_name] or runs
+    runs = [e for e in runs if e.result.status == "ok"] or runs
     if not runs:
         return ""
 
@@ -398,7 +399,7 @@ def _animation(planned: list[Experiment], out_dir: Path, robot_name: str) -> str
     with_plane = [e for e in runs if e.plane is not None]
     exp = max(with_plane or runs, key=motion)
     path = animate_robot(exp.robot, exp.result.t, exp.result.q, out_dir / f"{exp.name}.gif",
-                         plane=exp.plane, max_frames=60, fps=12, dpi=64, title=exp.name)
+                         plane=exp.plane, max_frames=60, fps=12, dpi=80, title=exp.name)
     uri = html.gif_data_uri(path.read_bytes())
     caption = f"Animation of {exp.name} ({exp.title}), resampled to 60 frames."
     return ('<section class="assignment" id="animation" data-assignment="animation"><h2>Animation</h2>'
