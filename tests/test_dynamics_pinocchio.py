@@ -28,7 +28,8 @@ RTOL = 1e-9
 
 
 def assert_close(actual, expected, what):
-    scale = max(1.0, float(np.abs(expected).max()))
+    # Relative to the largest entry (norm-wise), with a floor for all-zero references only.
+    scale = max(float(np.abs(expected).max()), 1e-12)
     error = float(np.abs(np.asarray(actual) - np.asarray(expected)).max())
     assert error <= RTOL * scale, f"{what}: max error {error:.3e} (scale {scale:.3e})"
 

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import os
 import sys
 
 from armlab import __version__
@@ -48,6 +49,10 @@ def main(argv: list[str] | None = None) -> int:
         return int(args.func(args) or 0)
     except ArmlabError as error:
         print(f"armlab {args.command}: error: {error}", file=sys.stderr)
+    except BrokenPipeError:
+        # The reader of our output went away (`armlab scenarios | head`): not an error.
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 0
     except OSError as error:
         where = f" {error.filename}" if error.filename else ""
         print(f"armlab {args.command}: error:{where}: {error.strerror or error}", file=sys.stderr)

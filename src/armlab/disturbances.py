@@ -2,7 +2,7 @@
 
 The plant integrated by ``armlab.simulate`` is (D1) with an extra torque τ_d at the joints:
 
-    B q̈ + C q̇ + F_v q̇ + F_s sgn q̇ + g = sat(τ) + τ_d(t, q, q̇) − Jᵀ h_e                  (S2)
+    B q̈ + C q̇ + F_v q̇ + F_s sgn q̇ + g = sat(τ) + τ_d(t, q, q̇) − Jᵀ h_e                  (S1)
 
 τ_d is the sum of the terms below (notation table, S-tags of ``docs/notation.md``), each given
 per joint [N | N·m]:

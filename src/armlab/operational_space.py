@@ -49,7 +49,7 @@ class OperationalSpaceDynamics:
     ``inertia`` Λ = B_A (k, k); ``bias`` μ = C_A ẋ (k,); ``gravity`` p = g_A (k,);
     ``jacobian`` J (k, n) and ``jacobian_dot_qd`` J̇ q̇ (k,) of the task rows;
     ``dynamic_inverse`` J̄ (n, k); ``rows`` the selected rows of x = [p_e; φ_e];
-    ``sigma_min`` the smallest singular value of J; ``damping`` λ² of (D10) (0 when exact).
+    ``sigma_min`` the smallest singular value of J; ``lambda2`` the λ² of (D10) actually used (0 when exact).
     Units follow x: [kg] and [N] on position rows, [kg·m²] and [N·m] on Euler-angle rows.
     """
 
@@ -61,12 +61,12 @@ class OperationalSpaceDynamics:
     dynamic_inverse: np.ndarray
     rows: tuple[int, ...]
     sigma_min: float
-    damping: float
+    lambda2: float
 
     @property
     def damped(self) -> bool:
         """True when (D10) damped the inversion (σ_min below the threshold)."""
-        return self.damping > 0.0
+        return self.lambda2 > 0.0
 
 
 def _rows(robot: Robot, rows) -> tuple[int, ...]:
@@ -131,4 +131,4 @@ def operational_space_dynamics(robot: Robot, q, qd, rows=None, euler: str = "zyz
     gravity = J_bar.T @ gravity_torque(robot, q)
     return OperationalSpaceDynamics(inertia=Lambda, bias=bias, gravity=gravity, jacobian=J,
                                     jacobian_dot_qd=Jdqd, dynamic_inverse=J_bar, rows=selected,
-                                    sigma_min=sigma_min, damping=lam2)
+                                    sigma_min=sigma_min, lambda2=lam2)

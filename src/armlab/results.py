@@ -120,24 +120,35 @@ class SimulationResult:
         suffix = path.suffix.lower()
         if suffix not in FORMATS:
             raise ResultFileError(f"{path}: unknown format {suffix!r} (use {', '.join(FORMATS)})")
+        if suffix == ".parquet":
+            try:
+                import pyarrow as pa
+                import pyarrow.parquet as pq
+            except ImportError:
+                raise ResultFileError(f"{path}: Parquet needs pyarrow (pip install 'armlab[data]')") from None
         header = json.dumps(self._header(), default=_plain)
-        if suffix == ".npz":
-            arrays = {"t": self.t, **{f"g_{g}": a for g, a in self.groups().items()}}
-            np.savez_compressed(path, header=np.array(header), **arrays)
-        elif suffix == ".csv":
-            names, table = self.to_table()
-            with open(path, "w", encoding="utf-8") as handle:
-                handle.write("# armlab " + header + "\n")
-                handle.write(",".join(names) + "\n")
-                np.savetxt(handle, table, delimiter=",", fmt="%.17g")
-        else:
-            import pyarrow as pa
-            import pyarrow.parquet as pq
-
-            names, table = self.to_table()
-            arrow = pa.table({name: table[:, i] for i, name in enumerate(names)})
-            arrow = arrow.replace_schema_metadata({"armlab": header})
-            pq.write_table(arrow, path)
+        # Written beside the target and renamed at the end, so a failure leaves no partial file.
+        partial = path.with_name(f".{path.name}.partial")
+        try:
+            if suffix == ".npz":
+                arrays = {"t": self.t, **{f"g_{g}": a for g, a in self.groups().items()}}
+                with open(partial, "wb") as handle:
+                    np.savez_compressed(handle, header=np.array(header), **arrays)
+            elif suffix == ".csv":
+                names, table = self.to_table()
+                with open(partial, "w", encoding="utf-8") as handle:
+                    handle.write("# armlab " + header + "\n")
+                    handle.write(",".join(names) + "\n")
+                    np.savetxt(handle, table, delimiter=",", fmt="%.17g")
+            else:
+                names, table = self.to_table()
+                arrow = pa.table({name: table[:, i] for i, name in enumerate(names)})
+                arrow = arrow.replace_schema_metadata({"armlab": header})
+                pq.write_table(arrow, partial)
+            partial.replace(path)
+        except OSError as error:
+            partial.unlink(missing_ok=True)
+            raise ResultFileError(f"{path}: cannot be written ({error.strerror})") from None
         return path
 
     @classmethod

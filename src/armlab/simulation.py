@@ -164,6 +164,8 @@ def _per_joint(value, n: int, field: str, default: float) -> np.ndarray:
 
 
 def _steps(span: float, dt: float, field: str) -> int:
+    if not np.isfinite(span):
+        raise SimulationError(f"{field}: must be a finite time, got {span!r}")
     count = int(round(span / dt))
     if count < 1 or abs(count * dt - span) > 1e-9 * max(1.0, span):
         raise SimulationError(f"{field}: {span:g} s is not a positive multiple of dt = {dt:g} s")
@@ -188,6 +190,8 @@ class _Setup:
         self.every = 1 if control_period is None else _steps(float(control_period), self.dt,
                                                              "control_period")
         self.sampled = control_period is not None
+        if isinstance(log_every, bool) or not float(log_every).is_integer():
+            raise SimulationError(f"log_every: must be a positive integer, got {log_every!r}")
         self.log_every = int(log_every)
         if self.log_every < 1:
             raise SimulationError(f"log_every: must be a positive integer, got {log_every!r}")
@@ -195,8 +199,9 @@ class _Setup:
         qd0 = _per_joint(qd0, n, "qd0", 0.0)
         z0 = np.asarray(controller.initial_state(), dtype=float).ravel()
         self.x0 = np.concatenate([q0, qd0, z0])
-        if not np.all(np.isfinite(self.x0)):
-            raise SimulationError("q0: initial state must be finite")
+        for name, part in (("q0", q0), ("qd0", qd0), ("controller initial state", z0)):
+            if not np.all(np.isfinite(part)):
+                raise SimulationError(f"{name}: must be finite, got {part.tolist()}")
         self.k = z0.shape[0]
         self.lim = _per_joint(torque_limit, n, "torque_limit", np.inf)
         if np.any(self.lim <= 0):
@@ -335,6 +340,9 @@ def simulate(plant, controller, *, q0, qd0=None, t_final, dt, method="rk4", cont
     """
     if method not in ("rk4", "adaptive"):
         raise SimulationError(f"method: {method!r} is not 'rk4' or 'adaptive'")
+    for name, value in (("rtol", rtol), ("atol", atol)):
+        if not (np.isfinite(value) and value > 0):
+            raise SimulationError(f"{name}: must be a positive tolerance, got {value!r}")
     if on_divergence not in ("raise", "return"):
         raise SimulationError(f"on_divergence: {on_divergence!r} is not 'raise' or 'return'")
     setup = _Setup(plant, controller, q0, qd0, t_final, dt, control_period, torque_limit,

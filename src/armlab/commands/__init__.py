@@ -27,6 +27,8 @@ def format_table(headers: list[str], rows: list[list[str]], indent: str = "") ->
 def format_number(value: float, digits: int = 4) -> str:
     """A compact number: ``digits`` decimals (three significant digits below 10^(1−digits)),
     without trailing zeros or a negative zero."""
+    if np.isnan(value):
+        return "nan"
     if not np.isfinite(value):
         return "inf" if value > 0 else "-inf"
     if abs(value) < 1e-12:

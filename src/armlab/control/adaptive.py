@@ -100,13 +100,16 @@ class SlotineLi1DoF(Controller):
         if self.model.n != 1:
             raise ProtocolError(f"model: SlotineLi1DoF needs a 1-joint robot, got {self.model.n}")
         _check_reference(self.reference, 1)
-        object.__setattr__(self, "gamma", gain_matrix(self.gamma, 3, "gamma"))
+        object.__setattr__(self, "gamma", gain_matrix(self.gamma, 3, "gamma", positive_definite=True))
         estimate = np.asarray(self.initial_estimate, dtype=float)
         if estimate.shape != (3,):
             raise ProtocolError("initial_estimate: expected 3 numbers [I, F, G]")
         object.__setattr__(self, "initial_estimate", estimate)
-        if self.kd <= 0 or self.lam <= 0:
-            raise ProtocolError("kd, lam: must be positive")
+        for name in ("kd", "lam"):
+            value = np.asarray(getattr(self, name), dtype=float)
+            if value.size != 1 or not np.isfinite(value).all() or float(value.reshape(-1)[0]) <= 0:
+                raise ProtocolError(f"{name}: must be one positive number, got {getattr(self, name)!r}")
+            object.__setattr__(self, name, float(value.reshape(-1)[0]))
 
     def params(self):
         return (np.array(self.reference.data), np.array([float(self.kd)]), np.array([float(self.lam)]),
@@ -293,8 +296,8 @@ class SlotineLi(Controller):
         if np.any(arrays.rotor_inertia != 0) or np.any(arrays.coulomb != 0):
             raise ProtocolError("model: SlotineLi does not estimate rotor inertia or Coulomb friction")
         object.__setattr__(self, "kd", gain_matrix(self.kd, n, "kd"))
-        object.__setattr__(self, "lam", gain_matrix(self.lam, n, "lam"))
-        object.__setattr__(self, "gamma", gain_matrix(self.gamma, 11 * n, "gamma"))
+        object.__setattr__(self, "lam", gain_matrix(self.lam, n, "lam", positive_definite=True))
+        object.__setattr__(self, "gamma", gain_matrix(self.gamma, 11 * n, "gamma", positive_definite=True))
 
     def params(self):
         n = self.n

@@ -20,8 +20,9 @@ from armlab.references import JointReference, reference_into
 COMPENSATION = {"online": 0, "desired": 1, "none": 2}
 
 
-def gain_matrix(value, n: int, field: str) -> np.ndarray:
-    """A (n, n) gain from a number, a (n,) diagonal or a (n, n) matrix; must be symmetric PSD."""
+def gain_matrix(value, n: int, field: str, *, positive_definite: bool = False) -> np.ndarray:
+    """A (n, n) gain from a number, a (n,) diagonal or a (n, n) matrix; must be symmetric
+    positive semi-definite (positive definite with ``positive_definite``)."""
     array = np.asarray(value, dtype=float)
     if array.ndim == 0 or array.shape == (1,):
         array = np.eye(n) * float(array.reshape(-1)[0])
@@ -30,8 +31,12 @@ def gain_matrix(value, n: int, field: str) -> np.ndarray:
     if array.shape != (n, n) or not np.all(np.isfinite(array)):
         raise ProtocolError(f"{field}: expected a number, {n} numbers or a {n}×{n} matrix, "
                             f"got shape {np.shape(value)}")
-    if not np.allclose(array, array.T) or np.linalg.eigvalsh(0.5 * (array + array.T)).min() < 0:
-        raise ProtocolError(f"{field}: a gain must be symmetric positive semi-definite")
+    if not np.allclose(array, array.T):
+        raise ProtocolError(f"{field}: a gain must be symmetric")
+    smallest = np.linalg.eigvalsh(0.5 * (array + array.T)).min()
+    if smallest < 0 or (positive_definite and smallest <= 0):
+        kind = "positive definite" if positive_definite else "positive semi-definite"
+        raise ProtocolError(f"{field}: a gain must be {kind} (smallest eigenvalue {smallest:g})")
     return np.ascontiguousarray(array)
 
 
@@ -147,7 +152,7 @@ class JointInverseDynamics(Controller):
 
     per joint a second-order system with ω_n² = k_P, 2ζω_n = k_D (:meth:`from_poles`).  With a
     wrong model (e.g. ``plant.with_link_mass("link4", 0.16)``) the residual
-    B̂⁻¹[(B̂ − B)q̈ + n̂ − n] drives q̃ off zero: a steady-state error where gravity is
+    B̂⁻¹[(B − B̂)q̈ + n − n̂] drives q̃ off zero: a steady-state error where gravity is
     mis-compensated.  h_e is not compensated (free-space control).
 
     Signals: ``q_des``, ``q_err``, ``qd_err``, ``y`` (the outer-loop acceleration).

@@ -264,7 +264,17 @@ class Robot:
     def with_link_mass(self, link: int | str, mass: float, *, scale_inertia: bool = True) -> Robot:
         """A copy whose link ``link`` has ``mass`` [kg]; its inertia tensor scales with the mass
         (same shape, different density) unless ``scale_inertia`` is False."""
-        index = link if isinstance(link, int) else [lk.name for lk in self.links].index(link)
+        names = [lk.name for lk in self.links]
+        if isinstance(link, str):
+            if link not in names:
+                raise ValueError(f"link: {link!r} is not a link of {self.name!r} ({', '.join(names)})")
+            index = names.index(link)
+        elif isinstance(link, int) and -self.n <= link < self.n:
+            index = link
+        else:
+            raise ValueError(f"link: {link!r} is not a link index of {self.name!r} (0…{self.n - 1})")
+        if not (np.isfinite(mass) and mass >= 0):
+            raise ValueError(f"mass: must be a finite non-negative mass [kg], got {mass!r}")
         old = self.links[index].inertial
         factor = mass / old.mass if (scale_inertia and old.mass > 0) else 1.0
         new_inertial = replace(old, mass=mass, inertia=old.inertia * factor)

@@ -333,6 +333,8 @@ def load_robot_toml(path: str | Path) -> Robot:
         text = path.read_text(encoding="utf-8")
     except OSError as error:
         raise RobotFileError(path, "file", f"cannot be read ({error.strerror})") from error
+    except UnicodeDecodeError:
+        raise RobotFileError(path, "file", "is not UTF-8 text") from None
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as error:

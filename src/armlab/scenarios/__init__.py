@@ -108,7 +108,10 @@ def _robot(name, overrides, file, where) -> Robot:
             raise ScenarioFileError(file, f"{where}_link_mass.{link}",
                                     f"no such link in {robot.name} "
                                     f"({', '.join(lk.name for lk in robot.links)})")
-        robot = robot.with_link_mass(link, _number(mass, file, f"{where}_link_mass.{link}"))
+        try:
+            robot = robot.with_link_mass(link, _number(mass, file, f"{where}_link_mass.{link}"))
+        except ValueError as error:
+            raise ScenarioFileError(file, f"{where}_link_mass.{link}", str(error)) from None
     return robot
 
 
@@ -170,8 +173,15 @@ class Scenario:
             from armlab.control.adaptive import link1_parameters
 
             meta["true_parameters"] = link1_parameters(self.plant).tolist()
-        return simulate(self.plant, self.controller, disturbance=list(self.disturbance) or None,
-                        meta=meta, **settings)
+        from armlab.simulation import SimulationError
+
+        try:
+            return simulate(self.plant, self.controller, disturbance=list(self.disturbance) or None,
+                            meta=meta, **settings)
+        except SimulationError as error:
+            # simulate names the argument ("q0: …"); the user wrote it in [simulation].
+            field, _, reason = str(error).partition(": ")
+            raise ScenarioFileError(self.source or self.name, f"simulation.{field}", reason) from None
 
 
 def load_scenario_file(path) -> Scenario:
@@ -181,6 +191,10 @@ def load_scenario_file(path) -> Scenario:
         data = tomllib.loads(path.read_text(encoding="utf-8"))
     except FileNotFoundError:
         raise ScenarioFileError(path, "file", "no such file") from None
+    except UnicodeDecodeError:
+        raise ScenarioFileError(path, "file", "is not UTF-8 text") from None
+    except OSError as error:
+        raise ScenarioFileError(path, "file", f"cannot be read ({error.strerror})") from None
     except tomllib.TOMLDecodeError as error:
         raise ScenarioFileError(path, "toml", str(error)) from None
     if _is_extension(data):

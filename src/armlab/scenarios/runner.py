@@ -2,11 +2,12 @@
 
 from __future__ import annotations
 
+import math
 import sys
 import time
 from pathlib import Path
 
-from armlab.scenarios import load_scenario
+from armlab.scenarios import ScenarioFileError, load_scenario
 from armlab.simulation import SimulationDiverged
 
 
@@ -19,6 +20,18 @@ def run_scenario(name_or_path, *, out_dir=None, formats=("npz", "csv"), plot=Fal
     data written like any other.  ``progress``: a text stream for a start/finish line.
     """
     scenario = load_scenario(name_or_path)
+    if out_dir is not None:
+        # Checked before the run, so a long simulation is not lost to a bad --out.
+        out_dir = Path(out_dir)
+        if out_dir.exists() and not out_dir.is_dir():
+            raise ScenarioFileError(out_dir, "--out", "exists and is not a directory")
+        try:
+            out_dir.mkdir(parents=True, exist_ok=True)
+        except OSError as error:
+            raise ScenarioFileError(out_dir, "--out", f"cannot be created ({error.strerror})") from None
+    if t_final is not None and not (math.isfinite(t_final) and t_final > 0):
+        raise ScenarioFileError(scenario.source or scenario.name, "--t-final",
+                                f"must be a positive finite time, got {t_final!r}")
     duration = t_final if t_final is not None else scenario.simulation["t_final"]
     if progress is not None:
         print(f"running {scenario.name}: {duration:g} s of simulated time, "
@@ -33,17 +46,13 @@ def run_scenario(name_or_path, *, out_dir=None, formats=("npz", "csv"), plot=Fal
               f"{' — ' + result.diagnosis if result.status != 'ok' else ''}", file=progress, flush=True)
     written, note = [], ""
     if out_dir is not None:
-        out_dir = Path(out_dir)
-        out_dir.mkdir(parents=True, exist_ok=True)
         for fmt in formats:
             written.append(result.save(out_dir / f"{scenario.name}.{fmt}"))
         if plot:
-            try:
-                from armlab.viz.scopes import plot_scopes
-            except ImportError:
-                note = "scope plots unavailable (armlab.viz.scopes missing): data written only"
-            else:
-                written += plot_scopes(result, out_dir, formats=("png",))
+            # Plotting is an edge: imported only when asked for.
+            from armlab.viz.scopes import plot_scopes
+
+            written += plot_scopes(result, out_dir, formats=("png",))
     return result, written, note
 
 
