@@ -81,18 +81,10 @@ class InteractionScenario(Scenario):
 
     environment: object = None
 
-    def run(self, *, t_final: float | None = None, method: str | None = None, **overrides):
+    def _simulate(self, settings: dict, meta: dict):
         """Simulate with the environment; the controller's singularity check runs afterwards."""
         from armlab.simulation import SimulationDiverged, simulate
 
-        settings = dict(self.simulation)
-        if t_final is not None:
-            settings["t_final"] = float(t_final)
-        if method is not None:
-            settings["method"] = method
-        settings.update(overrides)
-        meta = {"scenario": self.name, "title": self.title, "assignment": self.assignment,
-                "description": self.description, "source": self.source}
         try:
             result = simulate(self.plant, self.controller, environment=self.environment, meta=meta,
                               **settings)

@@ -42,7 +42,7 @@ kernel = njit(cache=True, _nrt=False)
 
 
 @kernel
-def _quintic(u):
+def quintic(u):
     """s(u), s'(u), s''(u) of the rest-to-rest quintic (R2), u ∈ [0, 1]."""
     u2 = u * u
     u3 = u2 * u
@@ -77,7 +77,7 @@ def reference_into(ref, t, q_des, qd_des, qdd_des):
             while t >= times[j + 1]:
                 j += 1
             span = times[j + 1] - times[j]
-            s, sd, sdd = _quintic((t - times[j]) / span)
+            s, sd, sdd = quintic((t - times[j]) / span)
         for i in range(n):
             a = values[j * n + i]
             delta = values[(j + 1) * n + i] - a

@@ -31,6 +31,7 @@ import numpy as np
 from numba import njit
 
 from armlab.errors import ArmlabError
+from armlab.references import quintic
 from armlab.spatial import euler_matrix
 
 
@@ -39,16 +40,6 @@ class TaskReferenceError(ArmlabError, ValueError):
 
 
 FRAME_SIZE = 24
-
-
-@njit(cache=True)
-def quintic(u):
-    """s(u), s'(u), s''(u) of the rest-to-rest quintic, u ∈ [0, 1]."""
-    u2 = u * u
-    u3 = u2 * u
-    return (10.0 * u3 - 15.0 * u3 * u + 6.0 * u3 * u2,
-            30.0 * u2 - 60.0 * u3 + 30.0 * u3 * u,
-            60.0 * u - 180.0 * u2 + 120.0 * u3)
 
 
 @njit(cache=True)

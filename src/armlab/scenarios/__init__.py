@@ -158,7 +158,7 @@ class Scenario:
 
     def run(self, *, t_final: float | None = None, method: str | None = None, **overrides):
         """Simulate this scenario (``armlab.simulate``); ``t_final``/``method`` shorten or switch it."""
-        from armlab.simulation import simulate
+        from armlab.simulation import SimulationError
 
         settings = dict(self.simulation)
         if t_final is not None:
@@ -168,20 +168,23 @@ class Scenario:
         settings.update(overrides)
         meta = {"scenario": self.name, "title": self.title, "assignment": self.assignment,
                 "description": self.description, "source": self.source}
+        try:
+            return self._simulate(settings, meta)
+        except SimulationError as error:
+            # simulate names the argument ("q0: …"); the user wrote it in [simulation].
+            field, _, reason = str(error).partition(": ")
+            raise ScenarioFileError(self.source or self.name, f"simulation.{field}", reason) from None
+
+    def _simulate(self, settings: dict, meta: dict):
+        from armlab.simulation import simulate
+
         if isinstance(self.controller, SlotineLi1DoF):
             # What the seed plots but the controller cannot know: the plant's [I, F, G].
             from armlab.control.adaptive import link1_parameters
 
             meta["true_parameters"] = link1_parameters(self.plant).tolist()
-        from armlab.simulation import SimulationError
-
-        try:
-            return simulate(self.plant, self.controller, disturbance=list(self.disturbance) or None,
-                            meta=meta, **settings)
-        except SimulationError as error:
-            # simulate names the argument ("q0: …"); the user wrote it in [simulation].
-            field, _, reason = str(error).partition(": ")
-            raise ScenarioFileError(self.source or self.name, f"simulation.{field}", reason) from None
+        return simulate(self.plant, self.controller, disturbance=list(self.disturbance) or None,
+                        meta=meta, **settings)
 
 
 def load_scenario_file(path) -> Scenario:
