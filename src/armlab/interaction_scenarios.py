@@ -30,7 +30,6 @@ which runs with its environment and warns when the task Jacobian neared a singul
 
 from __future__ import annotations
 
-import tomllib
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
@@ -48,13 +47,14 @@ from armlab.control.task_space import OperationalInverseDynamics, OperationalPD
 from armlab.environment import FreeSpace, PlanarWall, Spring
 from armlab.errors import ArmlabError
 from armlab.scenarios import (
-    SIMULATION_KEYS,
     TOP_KEYS,
     Scenario,
     ScenarioFileError,
     _number,
     _numbers,
     _robot,
+    plant_and_settings,
+    read_scenario_toml,
 )
 from armlab.spatial import euler_matrix
 from armlab.task_references import ForceReference, PoseReference
@@ -204,33 +204,11 @@ def load_interaction_scenario(path, data: dict | None = None) -> InteractionScen
         path = resources.files("armlab.scenarios").joinpath(FOLDER, f"{path}.toml")
     path = Path(str(path))
     if data is None:
-        try:
-            data = tomllib.loads(path.read_text(encoding="utf-8"))
-        except FileNotFoundError:
-            raise ScenarioFileError(path, "file", "no such file") from None
-        except tomllib.TOMLDecodeError as error:
-            raise ScenarioFileError(path, "toml", str(error)) from None
+        data = read_scenario_toml(path)
     unknown = (set(data) - (TOP_KEYS | {"environment"})) | ({"disturbance"} & set(data))
     if unknown:
         raise ScenarioFileError(path, sorted(unknown)[0], "unknown key for a task-space scenario")
-    for key in ("plant", "simulation", "controller"):
-        if key not in data:
-            raise ScenarioFileError(path, key, "missing")
-    plant = _robot(data["plant"], data.get("plant_link_mass", {}), path, "plant")
-    settings = {}
-    for key, value in data["simulation"].items():
-        if key not in SIMULATION_KEYS:
-            raise ScenarioFileError(path, f"simulation.{key}",
-                                    f"unknown key (use {', '.join(sorted(SIMULATION_KEYS))})")
-        if key == "method":
-            settings[key] = str(value)
-        elif key == "log_every":
-            settings[key] = int(_number(value, path, f"simulation.{key}"))
-        else:
-            settings[key] = _numbers(value, path, f"simulation.{key}")
-    for key in ("t_final", "dt", "q0"):
-        if key not in settings:
-            raise ScenarioFileError(path, f"simulation.{key}", "missing")
+    plant, settings = plant_and_settings(data, path)
     controller = _controller(data["controller"], data["plant"], path)
     environment = _environment(data["environment"], path) if "environment" in data else None
     return InteractionScenario(name=path.stem, title=str(data.get("title", path.stem)),

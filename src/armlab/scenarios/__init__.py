@@ -187,11 +187,10 @@ class Scenario:
                         meta=meta, **settings)
 
 
-def load_scenario_file(path) -> Scenario:
-    """Read and check a scenario file (see the module docstring)."""
-    path = Path(path)
+def read_scenario_toml(path: Path) -> dict:
+    """The parsed TOML of a scenario file; unreadable or malformed files raise one line."""
     try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))
+        return tomllib.loads(path.read_text(encoding="utf-8"))
     except FileNotFoundError:
         raise ScenarioFileError(path, "file", "no such file") from None
     except UnicodeDecodeError:
@@ -200,13 +199,10 @@ def load_scenario_file(path) -> Scenario:
         raise ScenarioFileError(path, "file", f"cannot be read ({error.strerror})") from None
     except tomllib.TOMLDecodeError as error:
         raise ScenarioFileError(path, "toml", str(error)) from None
-    if _is_extension(data):
-        from armlab.interaction_scenarios import load_interaction_scenario
 
-        return load_interaction_scenario(path, data)
-    unknown = set(data) - TOP_KEYS
-    if unknown:
-        raise ScenarioFileError(path, sorted(unknown)[0], f"unknown key (use {', '.join(sorted(TOP_KEYS))})")
+
+def plant_and_settings(data: dict, path) -> tuple[Robot, dict]:
+    """The plant robot and the checked ``[simulation]`` keyword arguments of a scenario."""
     for key in ("plant", "simulation", "controller"):
         if key not in data:
             raise ScenarioFileError(path, key, "missing")
@@ -220,7 +216,7 @@ def load_scenario_file(path) -> Scenario:
             raise ScenarioFileError(path, f"simulation.{key}",
                                     f"unknown key (use {', '.join(sorted(SIMULATION_KEYS))})")
         if key == "method":
-            settings[key] = value
+            settings[key] = str(value)
         elif key == "log_every":
             settings[key] = int(_number(value, path, f"simulation.{key}"))
         else:
@@ -228,6 +224,21 @@ def load_scenario_file(path) -> Scenario:
     for key in ("t_final", "dt", "q0"):
         if key not in settings:
             raise ScenarioFileError(path, f"simulation.{key}", "missing")
+    return plant, settings
+
+
+def load_scenario_file(path) -> Scenario:
+    """Read and check a scenario file (see the module docstring)."""
+    path = Path(path)
+    data = read_scenario_toml(path)
+    if _is_extension(data):
+        from armlab.interaction_scenarios import load_interaction_scenario
+
+        return load_interaction_scenario(path, data)
+    unknown = set(data) - TOP_KEYS
+    if unknown:
+        raise ScenarioFileError(path, sorted(unknown)[0], f"unknown key (use {', '.join(sorted(TOP_KEYS))})")
+    plant, settings = plant_and_settings(data, path)
     table = dict(data["controller"])
     model = _robot(table.pop("model", data["plant"]), table.pop("model_link_mass", {}), path,
                    "controller.model")
