@@ -37,13 +37,12 @@ from armlab.kernels.dynamics import (
     coriolis_matrix_into,
     forward_dynamics_into,
     gravity_into,
-    kinetic_energy_kernel,
     mass_matrix_into,
-    potential_energy_kernel,
     rnea_into,
     workspace_from_buffer,
     workspace_size,
 )
+from armlab.kernels.energy import kinetic_energy_kernel, potential_energy_kernel
 from armlab.kernels.packed import buffer_view, pack_robot, unpack_robot
 from armlab.model.robot import Robot
 
