@@ -1,10 +1,10 @@
 """A2 symbolically: Steiner's theorem, link inertias, partial Jacobians, kinetic and potential
 energy, B(q) (Siciliano et al. §7.2).
 
-    T = Σ_i ½ m_i ṗ_Cᵢᵀ ṗ_Cᵢ + ½ ω_iᵀ R_i I_Cᵢ R_iᵀ ω_i + Σ_i T_mᵢ = ½ q̇ᵀ B(q) q̇          (E1)
-    ṗ_Cᵢ = J_P^{ℓi} q̇,  ω_i = J_O^{ℓi} q̇                                                  (E2)
+    T = Σ_i ½ m_i ṗ_Cᵢᵀ ṗ_Cᵢ + ½ ω_iᵀ R_i I_Cᵢ R_iᵀ ω_i + Σ_i T_mᵢ = ½ q̇ᵀ B(q) q̇          (D6)
+    ṗ_Cᵢ = J_P^{ℓi} q̇,  ω_i = J_O^{ℓi} q̇                                                  (D11)
     T_mᵢ = ½ I_mᵢ (z_mᵢᵀ ω_{i−1} + k_rᵢ q̇_i)² + ½ m_mᵢ ṗ_mᵢᵀ ṗ_mᵢ                          (D3)
-    U = −Σ_i m_i g_0ᵀ p_Cᵢ − Σ_i m_mᵢ g_0ᵀ p_mᵢ                                             (E3)
+    U = −Σ_i m_i g_0ᵀ p_Cᵢ − Σ_i m_mᵢ g_0ᵀ p_mᵢ                                             (D7)
 
 Motor i (Siciliano §7.2) sits on link i−1 at joint i's origin p_mᵢ: a point mass m_mᵢ and a
 rotor of axial inertia I_mᵢ spinning at k_rᵢ q̇_i relative to link i−1 (motor 1 is on the
@@ -55,7 +55,7 @@ def com_positions(sr: SymbolicRobot) -> tuple[sp.Matrix, ...]:
 
 @lru_cache(maxsize=32)
 def partial_jacobians(sr: SymbolicRobot) -> tuple[tuple[sp.Matrix, sp.Matrix], ...]:
-    """(J_P^{ℓi}, J_O^{ℓi}), (3, n) each, in Σ_0 (E2): J_P = ∂p_Cᵢ/∂q, J_O columns z_{j−1}
+    """(J_P^{ℓi}, J_O^{ℓi}), (3, n) each, in Σ_0 (D11): J_P = ∂p_Cᵢ/∂q, J_O columns z_{j−1}
     for revolute j ≤ i."""
     axes = joint_axes(sr)
     result = []
@@ -77,7 +77,7 @@ def world_inertia(sr: SymbolicRobot, i: int) -> sp.Matrix:
 
 @lru_cache(maxsize=32)
 def kinetic_energies(sr: SymbolicRobot) -> tuple[tuple[sp.Expr, ...], tuple[sp.Expr, ...]]:
-    """(links, rotors): T_ℓᵢ of (E1) and T_mᵢ of (D3) for every i (rotors all 0 without motors)."""
+    """(links, rotors): T_ℓᵢ of (D6) and T_mᵢ of (D3) for every i (rotors all 0 without motors)."""
     qd = sr.qd
     links, rotors = [], []
     axes = joint_axes(sr)
@@ -100,7 +100,7 @@ def kinetic_energies(sr: SymbolicRobot) -> tuple[tuple[sp.Expr, ...], tuple[sp.E
 
 @lru_cache(maxsize=32)
 def inertia_matrix(sr: SymbolicRobot) -> sp.Matrix:
-    """B(q) = ∂²T/∂q̇², (n, n), in compact form (E1)."""
+    """B(q) = ∂²T/∂q̇², (n, n), in compact form (D6)."""
     links, rotors = kinetic_energies(sr)
     T = sum(links, sp.Integer(0)) + sum(rotors, sp.Integer(0))
     return compact_matrix(sp.hessian(sp.expand(T), list(sr.qd)), angles(sr), deep=True)
@@ -108,7 +108,7 @@ def inertia_matrix(sr: SymbolicRobot) -> sp.Matrix:
 
 @lru_cache(maxsize=32)
 def potential_energies(sr: SymbolicRobot) -> tuple[sp.Expr, ...]:
-    """U_ℓᵢ = −m_i g_0ᵀ p_Cᵢ (E3), plus −m_m,i+1 g_0ᵀ p_m,i+1 of the motor link i carries."""
+    """U_ℓᵢ = −m_i g_0ᵀ p_Cᵢ (D7), plus −m_m,i+1 g_0ᵀ p_m,i+1 of the motor link i carries."""
     axes = joint_axes(sr)
     result = []
     for i, (link, p) in enumerate(zip(sr.links, com_positions(sr), strict=True)):
