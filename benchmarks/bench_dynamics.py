@@ -227,31 +227,16 @@ def _loop_over(rnea):
 
 
 def _symbolic_tau_loop(robot):
-    """τ = B q̈ + C q̇ + g as one SymPy vector from armlab.symbolic's derivation, lambdified
-    with common subexpressions and compiled; friction added in the loop."""
-    import sympy as sp
+    """``armlab.symbolic.closed_form_torque``: τ = B q̈ + C q̇ + g + friction as one compiled
+    formula, called in a compiled loop."""
+    from armlab.symbolic import closed_form_torque
 
-    from armlab.symbolic.energy import inertia_matrix
-    from armlab.symbolic.lagrange import coriolis_matrix, gravity_vector
-    from armlab.symbolic.model import symbolic_robot
-
-    sr = symbolic_robot(robot, numeric=True)
-    values = sr.numeric_substitution()
-    q, qd = list(sr.q), list(sr.qd)
-    qdd = list(sp.symbols(f"qdd0:{sr.n}", real=True))
-    B, C, g = (sp.Matrix(M).xreplace(values) for M in
-               (inertia_matrix(sr), coriolis_matrix(sr), gravity_vector(sr)))
-    tau = B * sp.Matrix(qdd) + C * sp.Matrix(qd) + g.reshape(sr.n, 1)
-    evaluate = njit(sp.lambdify([q, qd, qdd], tuple(tau), modules="math", cse=True, docstring_limit=0))
-    viscous, coulomb, n = robot.arrays.viscous.copy(), robot.arrays.coulomb.copy(), sr.n
+    tau_into = closed_form_torque(robot)
 
     @njit(_nrt=False)
     def loop(Q, QD, QDD, out):
         for k in range(Q.shape[0]):
-            t = evaluate(Q[k], QD[k], QDD[k])
-            for i in range(n):
-                v = QD[k, i]
-                out[k, i] = t[i] + viscous[i] * v + coulomb[i] * np.sign(v)
+            tau_into(Q[k], QD[k], QDD[k], out[k])
     return loop
 
 
@@ -282,7 +267,7 @@ def prp_compiled_rows(states=200000):
     return [
         ("rnea_into (general RNEA)", _best_batch(lambda: _rnea_batch(m, ws, Q, QD, QDD, h_e, TAU), states)),
         ("closed_form_kernels", _best_batch(lambda: generated(m, ws, Q, QD, QDD, h_e, TAU_GEN), states)),
-        ("symbolic τ, one function", _best_batch(lambda: symbolic(Q, QD, QDD, TAU_SYM), states)),
+        ("closed_form_torque", _best_batch(lambda: symbolic(Q, QD, QDD, TAU_SYM), states)),
         ("hand-written closed form", _best_batch(
             lambda: _prp_closed_form_batch(k, Q, QD, QDD, TAU_HAND), states)),
     ]

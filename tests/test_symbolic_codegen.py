@@ -8,7 +8,7 @@ import numpy as np
 import armlab
 from armlab.kernels import dynamics as numeric
 from armlab.kernels import kinematics as numeric_kin
-from armlab.symbolic import closed_form_kernels
+from armlab.symbolic import closed_form_kernels, closed_form_torque
 
 RNG = np.random.default_rng(7)
 
@@ -79,3 +79,15 @@ def test_simulation_through_the_closed_form_follows_the_numeric_plant():
     assert np.abs(q_numeric - np.array([0.05, 0.4, 0.1])).max() > 1e-3  # the arm moved
     np.testing.assert_allclose(q_closed, q_numeric, rtol=1e-9, atol=1e-11)
     np.testing.assert_allclose(qd_closed, qd_numeric, rtol=1e-9, atol=1e-11)
+
+
+def test_one_formula_torque_matches_the_numeric_rnea():
+    robot, _, ws = setup()
+    tau_into = closed_form_torque(robot)
+    m, n = robot.arrays, robot.n
+    tau_a, tau_b = np.empty(n), np.empty(n)
+    for _ in range(5):
+        q, qd, qdd = RNG.normal(size=(3, n)) * 0.3
+        tau_into(q, qd, qdd, tau_a)
+        numeric.rnea_into(m, ws, q, qd, qdd, 1.0, np.zeros(6), tau_b)
+        np.testing.assert_allclose(tau_a, tau_b, rtol=1e-10, atol=1e-12)

@@ -8,11 +8,12 @@ LaTeX and compiled code.
 * :func:`derive` — the A1–A5 chain as :class:`Section` objects (title, items of
   (label, SymPy expression)), rendered by :func:`render` as text, LaTeX or Markdown;
 * :func:`closed_form_kernels` — closed-form B, C, g, FK, J compiled with numba, with the
-  signatures of the numeric kernels;
+  signatures of the numeric kernels; :func:`closed_form_torque` — the inverse dynamics as one
+  compiled formula;
 * :func:`compact_dynamics` — B, C, g of larger arms (Puma 560) through the recursive route.
 """
 
-from armlab.symbolic.codegen import ClosedFormKernels, closed_form_kernels
+from armlab.symbolic.codegen import ClosedFormKernels, closed_form_kernels, closed_form_torque
 from armlab.symbolic.compact import CompactDynamics, compact_dynamics
 from armlab.symbolic.model import SymbolicJoint, SymbolicLink, SymbolicRobot, symbolic_robot
 from armlab.symbolic.render import render, to_latex, to_mathml, to_text
@@ -21,6 +22,7 @@ from armlab.symbolic.simplify import compact, count_ops
 
 __all__ = [
     "ASSIGNMENTS", "ClosedFormKernels", "CompactDynamics", "Item", "Section", "SymbolicJoint", "SymbolicLink",
-    "SymbolicRobot", "closed_form_kernels", "compact", "compact_dynamics", "count_ops", "derive", "render",
+    "SymbolicRobot", "closed_form_kernels", "closed_form_torque", "compact", "compact_dynamics", "count_ops",
+    "derive", "render",
     "symbolic_robot", "to_latex", "to_mathml", "to_text",
 ]

@@ -213,3 +213,42 @@ def closed_form_kernels(robot: Robot | SymbolicRobot, *, B=None, C=None, g=None)
 
     return ClosedFormKernels(mass_matrix_into, coriolis_matrix_into, gravity_into, rnea_into,
                              forward_dynamics_into, forward_kinematics_kernel, jacobian_kernel, sr)
+
+
+def closed_form_torque(robot: Robot | SymbolicRobot):
+    """A compiled ``tau_into(q, qd, qdd, tau_out)`` of the inverse dynamics in one formula:
+
+        τ = B(q) q̈ + C(q, q̇) q̇ + g(q) + F_v q̇ + F_s sgn q̇                     (D1, h_e = 0)
+
+    B q̈ + C q̇ + g is one SymPy vector, lambdified with common subexpressions, so the compiled
+    code is the scalar arithmetic a person would write by hand (no matrices are filled).
+    Compiled without reference counting: it allocates nothing and can be called from other
+    compiled loops.  q, qd, qdd, tau_out (n,) [m | rad, /s, /s², N | N·m].
+    """
+    sr = robot if isinstance(robot, SymbolicRobot) else symbolic_robot(robot, numeric=True)
+    values = sr.numeric_substitution()
+    q, qd = list(sr.q), list(sr.qd)
+    qdd = list(sp.symbols(f"qdd0:{sr.n}", real=True))
+    B, C, g = (sp.Matrix(M).xreplace(values)
+               for M in (inertia_matrix(sr), coriolis_matrix(sr), gravity_vector(sr)))
+    tau = B * sp.Matrix(qdd) + C * sp.Matrix(qd) + g.reshape(sr.n, 1)
+    exprs = tuple(sp.Float(e) if e.is_Number else e for e in tau)
+    evaluate = numba.njit(_nrt=False)(
+        sp.lambdify([q, qd, qdd], exprs, modules="math", cse=True, docstring_limit=0))
+    viscous = np.array([float(j.viscous.xreplace(values)) for j in sr.joints])
+    coulomb = np.array([float(j.coulomb.xreplace(values)) for j in sr.joints])
+    n = sr.n
+
+    @numba.njit(_nrt=False)
+    def tau_into(q, qd, qdd, tau_out):
+        rigid = evaluate(q, qd, qdd)
+        for i in range(n):
+            v = qd[i]
+            friction = viscous[i] * v
+            if v > 0.0:
+                friction += coulomb[i]
+            elif v < 0.0:
+                friction -= coulomb[i]
+            tau_out[i] = rigid[i] + friction
+
+    return tau_into
