@@ -35,15 +35,17 @@ from numba import njit, types
 from armlab.errors import ArmlabError
 from armlab.kernels.dynamics import (
     coriolis_matrix_into,
-    forward_dynamics_into,
     gravity_into,
     mass_matrix_into,
     rnea_into,
-    workspace_from_buffer,
-    workspace_size,
 )
-from armlab.kernels.energy import kinetic_energy_kernel, potential_energy_kernel
-from armlab.kernels.packed import buffer_view, pack_robot, unpack_robot
+from armlab.kernels.energy import potential_energy_kernel
+from armlab.kernels.plant import (
+    forward_dynamics_packed,
+    kinetic_energy_packed,
+    pack_plant,
+    unpack_plant,
+)
 from armlab.model.robot import Robot
 
 _CACHE_KEY = "_dynamics_packed"
@@ -53,37 +55,21 @@ class SingularInertiaError(ArmlabError):
     """B(q) is not positive definite (a link without mass moved by a joint)."""
 
 
-# Layout of the packed robot: [n | joint_type (n, int64 bits) | zero wrench (6) | workspace |
-# the float fields of RobotArrays (pack_robot)].
-_HEAD = 7
-
-
 def _pack(robot: Robot):
-    """(packed, n) of ``robot``, made once and kept in the robot's instance dictionary next to
-    ``robot.arrays`` (a plain attribute lookup; a weak-key dictionary costs more than the
-    dynamics of a small arm).  The model part depends only on the immutable robot; every
-    kernel writes the scratch it reads first, so sharing the workspace between calls
-    (serialised by the GIL, which the kernels keep) cannot change a result."""
+    """(packed, n) of ``robot`` (``armlab.kernels.plant``), made once and kept in the robot's
+    instance dictionary next to ``robot.arrays`` (a plain attribute lookup; a weak-key
+    dictionary costs more than the dynamics of a small arm).  The model part depends only on
+    the immutable robot; every kernel writes the scratch it reads first, so sharing the
+    workspace between calls (serialised by the GIL, which the kernels keep) cannot change a
+    result."""
     cached = robot.__dict__.get(_CACHE_KEY)
     if cached is None:
-        joint_type, data = pack_robot(robot.arrays)
-        n = joint_type.shape[0]
-        packed = np.concatenate([[float(n)], joint_type.view(np.float64), np.zeros(6),
-                                 np.zeros(workspace_size(n)), data])
-        cached = robot.__dict__[_CACHE_KEY] = (packed, n)
+        packed = pack_plant(robot.arrays)
+        cached = robot.__dict__[_CACHE_KEY] = (packed, int(packed[0]))
     return cached
 
 
-@njit(cache=True, _nrt=False, inline="always")
-def _unpack(packed):
-    """(n, m, ws, zero wrench) from a packed robot (views, no copy)."""
-    n = int(packed[0])
-    joint_type = buffer_view(packed, 1, n, np.int64)
-    size = workspace_size(n)
-    ws = workspace_from_buffer(buffer_view(packed, _HEAD + n, size, np.float64), n)
-    start = _HEAD + n + size
-    m = unpack_robot(joint_type, buffer_view(packed, start, packed.shape[0] - start, np.float64))
-    return n, m, ws, buffer_view(packed, 1 + n, 6, np.float64)
+_unpack = unpack_plant
 
 
 _V = types.float64[::1]
@@ -94,7 +80,8 @@ def _entry(*argtypes):
     """A compiled Python entry point with exactly one signature, compiled (or loaded from the
     disk cache) at its first call; see the module docstring."""
     def wrap(function):
-        dispatcher = njit(cache=True, _nrt=False)(function)
+        # A kernel shared with compiled callers (armlab.kernels.plant) is used as it is.
+        dispatcher = function if hasattr(function, "py_func") else njit(cache=True, _nrt=False)(function)
         # What disable_compile() sets; it refuses a dispatcher without a signature yet.
         dispatcher._can_compile = False
         dispatcher.signature = argtypes
@@ -155,23 +142,8 @@ def _coriolis_entry(packed, q, qd, out):
     return True
 
 
-@_entry(_V, _V, _V, _V, _V, _V)
-def _forward_entry(packed, q, qd, tau, h_e, out):
-    """0: done, 1: a wrong length, 2: B not positive definite."""
-    n, m, ws, _ = _unpack(packed)
-    if (q.shape[0] != n or qd.shape[0] != n or tau.shape[0] != n or h_e.shape[0] != 6
-            or out.shape[0] != n):
-        return 1
-    return 0 if forward_dynamics_into(m, ws, q, qd, tau, h_e, out) else 2
-
-
-@_entry(_V, _V, _V)
-def _kinetic_entry(packed, q, qd):
-    """T, or NaN for a wrong length (told apart by the caller)."""
-    n, m, ws, _ = _unpack(packed)
-    if q.shape[0] != n or qd.shape[0] != n:
-        return np.nan
-    return kinetic_energy_kernel(m, ws, q, qd)
+_forward_entry = _entry(_V, _V, _V, _V, _V, _V)(forward_dynamics_packed)
+_kinetic_entry = _entry(_V, _V, _V)(kinetic_energy_packed)
 
 
 @_entry(_V, _V)

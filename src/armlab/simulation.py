@@ -12,9 +12,10 @@ with sat the per-joint clip at ``torque_limit`` and τ_d the disturbances of
 Integrators
 -----------
 ``method="rk4"``: fixed-step classical Runge–Kutta (Simulink's ode4, S3); the whole loop is one
-compiled function generated per (controller law, environment law) pair and cached on disk
-(``ARMLAB_CACHE_DIR``, default ``~/.cache/armlab``): the first run of a new controller class
-compiles it (seconds), later runs and later processes load it.
+compiled function (``armlab.kernels.integrators``) that calls the controller's law, the
+environment and the plant's dynamics through their machine addresses, so each is compiled once
+and cached on disk: the first run of a new controller class compiles its law (seconds), later
+runs and later processes load it.
 
 ``method="adaptive"``: SciPy's ``solve_ivp`` (DOP853 by default, error controlled by
 ``rtol``/``atol``) calling the *same* compiled right-hand side; the accuracy reference.
@@ -34,20 +35,17 @@ range, or kinetic energy above ``max_kinetic_energy`` stops the run; ``Simulatio
 
 from __future__ import annotations
 
-import hashlib
-import importlib.util
 import os
-import sys
-import tempfile
 import time
-from pathlib import Path
 
 import numpy as np
 
-from armlab.control.base import Controller, Environment, Signal, law_location
+from armlab.control.base import Controller, Environment, ProtocolError, Signal
 from armlab.disturbances import encode_disturbances
 from armlab.errors import ArmlabError
-from armlab.kernels.integrators import TEMPLATE, no_environment_law
+from armlab.kernels import integrators
+from armlab.kernels.integrators import no_environment_law
+from armlab.kernels.plant import pack_plant
 from armlab.results import SimulationResult
 
 STATUS = {1: "non-finite state", 2: "joint limit exceeded", 3: "runaway kinetic energy",
@@ -64,92 +62,6 @@ class SimulationDiverged(ArmlabError):
     def __init__(self, message: str, result: SimulationResult):
         super().__init__(message)
         self.result = result
-
-
-# --------------------------------------------------------------------------- compiled loops
-
-def cache_dir() -> Path:
-    """Where generated loop modules (and their numba caches) live."""
-    root = os.environ.get("ARMLAB_CACHE_DIR")
-    if root:
-        return Path(root)
-    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
-    return Path(base) / "armlab"
-
-
-def _compiled_dependencies(names) -> list[Path]:
-    """Source files of the armlab modules that define compiled functions the named modules may
-    call (followed transitively through the functions and modules in their namespaces)."""
-    seen, stack = set(), list(names)
-    while stack:
-        name = stack.pop()
-        if name in seen or not (name == "armlab" or name.startswith("armlab.") or name in names):
-            continue
-        seen.add(name)
-        module = sys.modules.get(name) or importlib.import_module(name)
-        for value in vars(module).values():
-            owner = getattr(value, "__module__", None) if not isinstance(value, type(sys)) else value.__name__
-            if isinstance(owner, str) and owner not in seen and owner.startswith("armlab"):
-                stack.append(owner)
-    files = []
-    for name in sorted(seen):
-        module = sys.modules.get(name)
-        origin = getattr(module, "__file__", None)
-        # Only files that define compiled functions can change the generated loop's code.
-        compiled = any(hasattr(v, "py_func") and getattr(v, "__module__", None) == name
-                       for v in vars(module).values())
-        if origin and compiled:
-            files.append(Path(origin))
-    return files
-
-
-def _source_fingerprint(*modules: str) -> str:
-    """A hash of the template and of every armlab source the generated loop depends on:
-    numba's disk cache checks only the generated file, so a change in the code it calls
-    must change the file's name."""
-    digest = hashlib.sha256(TEMPLATE.encode())
-    base = ("armlab.kernels.dynamics", "armlab.kernels.kinematics", "armlab.disturbances")
-    for path in _compiled_dependencies([*base, *modules]):
-        stat = path.stat()
-        digest.update(f"{path}:{stat.st_size}:{stat.st_mtime_ns}".encode())
-    return digest.hexdigest()[:16]
-
-
-_LOOPS: dict = {}
-
-
-def loop_module(law, env_law):
-    """The generated, compiled loop module for a controller law and an environment law."""
-    key = (law, env_law)
-    if key in _LOOPS:
-        return _LOOPS[key]
-    law_module, law_name = law_location(law)
-    env_module, env_name = law_location(env_law)
-    source = TEMPLATE.format(law_module=law_module, law_name=law_name, env_module=env_module,
-                             env_name=env_name)
-    stem = f"{law_module}.{law_name}.{env_module}.{env_name}".replace(".", "_")
-    name = f"armlab_loop_{stem}_{_source_fingerprint(law_module, env_module)}"
-    folder = cache_dir() / "loops"
-    try:
-        folder.mkdir(parents=True, exist_ok=True)
-        probe = folder / ".write-test"
-        probe.touch()
-    except OSError:
-        folder = Path(tempfile.gettempdir()) / "armlab-loops"
-        folder.mkdir(parents=True, exist_ok=True)
-    path = folder / f"{name}.py"
-    if not path.exists() or path.read_text() != source:
-        # Write atomically: parallel processes may generate the same module.
-        handle, temporary = tempfile.mkstemp(dir=folder, suffix=".tmp")
-        with os.fdopen(handle, "w") as stream:
-            stream.write(source)
-        os.replace(temporary, path)
-    spec = importlib.util.spec_from_file_location(name, path)
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[name] = module
-    spec.loader.exec_module(module)
-    _LOOPS[key] = module
-    return module
 
 
 # --------------------------------------------------------------------------- set-up helpers
@@ -220,15 +132,22 @@ class _Setup:
         self.eparams = environment.params() if environment is not None else (np.zeros(1),)
         self.signals: tuple[Signal, ...] = tuple(controller.signals())
         self.sig_width = sum(s.width for s in self.signals)
-        self.loops = loop_module(type(controller).law, self.env_law)
+        self.law = _compiled(type(controller).law, f"{type(controller).__name__}.law")
+        self.env_law = _compiled(self.env_law, f"{type(environment).__name__}.law")
         self.rows = self.n_steps // self.log_every + 1
 
+    def workspace(self, cparams):
+        """(fn, pp, work) of one run: the loop's addresses, the packed plant (its own copy:
+        it holds scratch) and the loop's scratch memory."""
+        fn = integrators.addresses(self.law, self.env_law, cparams, self.eparams)
+        work = np.zeros(integrators.work_size(self.n, self.k, self.sig_width))
+        return fn, pack_plant(self.plant.arrays), work
+
     def outputs(self, rows=None):
+        """The log: one (rows, columns) array, columns of ``integrators.log_columns``."""
         rows = self.rows if rows is None else rows
-        n = self.n
-        return (np.zeros(rows), np.zeros((rows, n)), np.zeros((rows, n)), np.zeros((rows, n)),
-                np.zeros((rows, n)), np.zeros((rows, self.k)), np.zeros((rows, self.sig_width)),
-                np.zeros((rows, n)), np.zeros((rows, n)), np.zeros((rows, 6)))
+        columns = integrators.log_columns(self.n, self.k, self.sig_width)
+        return np.zeros((rows, columns["h_e"].stop))
 
     def settings(self):
         fset = np.array([0.0, self.dt, self.ke_max])
@@ -238,7 +157,10 @@ class _Setup:
         return fset, iset
 
     def result(self, out, rows, method, meta, status="ok", diagnosis=""):
-        o_t, o_q, o_qd, o_qdd, o_tau, o_z, o_sig, o_cmd, o_dist, o_he = (a[:rows] for a in out)
+        columns = integrators.log_columns(self.n, self.k, self.sig_width)
+        o_t, o_q, o_qd, o_qdd, o_tau, o_z, o_sig, o_cmd, o_dist, o_he = (
+            np.ascontiguousarray(out[:rows, c]) for c in columns.values())
+        o_t = o_t[:, 0]
         plant, controller = self.plant, self.controller
         labels = {"q": tuple(plant.joint_names), "qd": tuple(plant.joint_names),
                   "qdd": tuple(plant.joint_names), "tau": tuple(plant.joint_names),
@@ -285,6 +207,13 @@ class _Setup:
         elif status == 3:
             what += f" (above {self.ke_max:g} J)"
         return f"simulation diverged at t = {t:.6g} s (step {step}): {what}"
+
+
+def _compiled(law, what):
+    """``law`` if it is a numba-compiled function (the loop calls it by address)."""
+    if not (hasattr(law, "compile") and hasattr(law, "overloads")):
+        raise ProtocolError(f"{what}: {law!r} is not a numba.njit function")
+    return law
 
 
 def _names(given, k: int, stem: str) -> tuple[str, ...]:
@@ -356,22 +285,23 @@ def _run_rk4(setup, cparams, meta, on_divergence):
     fset, iset = setup.settings()
     out = setup.outputs()
     start = time.perf_counter()
-    status, rows, step, joint = setup.loops.rk4_run(
-        setup.plant.arrays, cparams, setup.eparams, setup.dist, setup.x0, fset, iset, setup.lim,
-        setup.q_lo, setup.q_hi, out)
+    status, rows, step, joint = _rk4(setup, cparams, fset, iset, out)
     meta = {**(meta or {}), "wall_time": time.perf_counter() - start}
     result = setup.result(out, rows, "rk4", meta)
     return _finish(setup, result, status, step, joint, on_divergence)
 
 
+def _rk4(setup, cparams, fset, iset, out):
+    fn, pp, work = setup.workspace(cparams)
+    return integrators.rk4_core(fn, pp, cparams, setup.eparams, setup.dist, setup.x0.copy(), work,
+                                fset, iset, setup.lim, setup.q_lo, setup.q_hi, out)
+
+
 def _run_adaptive(setup, cparams, meta, on_divergence, rtol, atol, integrator):
     from scipy.integrate import solve_ivp
 
-    from armlab.kernels.dynamics import make_workspace
-
-    loops, pm, n = setup.loops, setup.plant.arrays, setup.n
-    pws = make_workspace(n)
-    sc = loops.make_scratch(n, setup.k, setup.sig_width)
+    n, width = setup.n, setup.sig_width
+    fn, pp, work = setup.workspace(cparams)
     has_env = setup.environment is not None
     xdot = np.zeros_like(setup.x0)
     grid = np.arange(setup.n_steps + 1) * setup.dt
@@ -379,8 +309,8 @@ def _run_adaptive(setup, cparams, meta, on_divergence, rtol, atol, integrator):
     start = time.perf_counter()
 
     def rhs(t, x, call_law, z_rate):
-        loops.rhs(t, x, pm, pws, cparams, setup.eparams, setup.dist, has_env, call_law, z_rate,
-                  setup.lim, sc, xdot)
+        integrators.rhs(fn, t, x, pp, cparams, setup.eparams, setup.dist, has_env, call_law, z_rate,
+                        setup.lim, work, width, xdot)
         return xdot.copy()
 
     x = setup.x0.copy()
@@ -394,33 +324,31 @@ def _run_adaptive(setup, cparams, meta, on_divergence, rtol, atol, integrator):
         if setup.sampled:
             if first > 0:
                 x[2 * n:] += setup.every * setup.dt * zdot_held
-            loops.rhs(grid[first], x, pm, pws, cparams, setup.eparams, setup.dist, has_env, True,
-                      0.0, setup.lim, sc, xdot)
-            zdot_held = sc[5].copy()
+            integrators.rhs(fn, grid[first], x, pp, cparams, setup.eparams, setup.dist, has_env, True,
+                            0.0, setup.lim, work, width, xdot)
+            zdot_held = work[integrators.zdot_slice(n, setup.k)].copy()
         solution = solve_ivp(rhs, (grid[first], grid[last]), x, method=integrator, rtol=rtol,
                              atol=atol, t_eval=grid[first:last + 1],
                              args=(not setup.sampled, 0.0 if setup.sampled else 1.0))
         xs = np.ascontiguousarray(solution.y.T)
         keep = xs.shape[0] if last == setup.n_steps else xs.shape[0] - 1
-        for r in range(keep):
-            code, where = loops.check_state(pm, pws, xs[r], n, setup.q_lo, setup.q_hi, setup.ke_max,
-                                            True, np.zeros(n), np.zeros(6))
-            if code != 0:
-                status, step, joint, keep = code, first + r, where, r
-                break
-        loops.log_rows(grid[first:first + keep], xs[:keep], pm, cparams, setup.eparams, setup.dist,
-                       has_env, not setup.sampled, setup.lim, sc, out, rows)
+        bad, code, where = integrators.check_rows(fn, pp, xs[:keep], setup.q_lo, setup.q_hi,
+                                                  setup.ke_max, work)
+        if bad >= 0:
+            status, step, joint, keep = code, first + bad, where, bad
+        integrators.log_rows(fn, grid[first:first + keep], np.ascontiguousarray(xs[:keep]), pp,
+                             cparams, setup.eparams, setup.dist, has_env, not setup.sampled,
+                             setup.lim, work, width, out, rows)
         rows += keep
         if status == 0 and solution.status != 0:
             status, step = 1, first + keep
         if status != 0:
             break
         x = xs[-1].copy()
-    keep_rows = np.arange(0, rows, setup.log_every)
-    thinned = tuple(a[keep_rows] for a in out)
+    thinned = np.ascontiguousarray(out[0:rows:setup.log_every])
     meta = {**(meta or {}), "wall_time": time.perf_counter() - start, "integrator": integrator,
             "rtol": rtol, "atol": atol}
-    result = setup.result(thinned, len(keep_rows), "adaptive", meta)
+    result = setup.result(thinned, thinned.shape[0], "adaptive", meta)
     return _finish(setup, result, status, step, joint, on_divergence)
 
 
@@ -445,9 +373,7 @@ def simulate_batch(plant, controllers, *, q0, qd0=None, t_final, dt, torque_limi
     def one(setup):
         fset, iset = setup.settings()
         out = setup.outputs()
-        status, rows, step, joint = setup.loops.rk4_run(
-            plant.arrays, setup.controller.params(), setup.eparams, setup.dist, setup.x0, fset,
-            iset, setup.lim, setup.q_lo, setup.q_hi, out)
+        status, rows, step, joint = _rk4(setup, setup.controller.params(), fset, iset, out)
         return _finish(setup, setup.result(out, rows, "rk4", meta), status, step, joint, "return")
 
     with ThreadPoolExecutor(max_workers=workers or os.cpu_count()) as pool:

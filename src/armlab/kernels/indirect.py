@@ -1,0 +1,91 @@
+"""Indirect calls: compiled code calling a compiled kernel through its machine address.
+
+Why.  When one numba function calls another, numba links the callee's LLVM module into the
+caller's and optimises and compiles the whole again.  A simulation loop that calls a control
+law, which calls the RNEA, plus the plant's forward dynamics and kinematics, therefore
+recompiled all of them for every law (about 20 s each), and a loop that received the law as a
+function argument could not be cached on disk at all (the argument's type belongs to one
+process).  Calling through an address keeps every kernel compiled once, in its own cached
+module, and lets one cached loop call any law, environment or plant model:
+
+    address = kernel_address(rnea_into, (arrays_type, workspace_type, ...))   # Python, per process
+    call_none(address, (m, ws, q, qd, qdd, 1.0, h_e, tau))                   # compiled code
+
+The call uses numba's own calling convention for the argument types as the caller sees them,
+so the types the address was compiled for must be the caller's, exactly (same dtypes,
+dimensions and tuple structure; array layout does not change the convention).  Exceptions
+raised by the callee propagate to the caller as in a direct call.
+"""
+
+from __future__ import annotations
+
+from llvmlite import ir
+from numba import types
+from numba.core import cgutils
+from numba.core.callconv import excinfo_t
+from numba.extending import intrinsic
+
+__all__ = ["call_bool", "call_float", "call_int", "call_none", "kernel_address"]
+
+
+def _indirect_call(restype):
+    """An intrinsic ``call(address, args_tuple) -> restype``."""
+
+    @intrinsic
+    def call(typingctx, address, args):
+        if not isinstance(address, types.Integer) or not isinstance(args, types.BaseTuple):
+            return None
+        signature = restype(address, args)
+
+        def codegen(context, builder, sig, llargs):
+            address_value, packed = llargs
+            argtypes = list(args.types)
+            values = [builder.extract_value(packed, i) for i in range(len(argtypes))]
+            conv = context.call_conv
+            function_type = conv.get_function_type(restype, argtypes)
+            callee = builder.inttoptr(address_value, function_type.as_pointer())
+            result_type = conv.get_return_type(restype).pointee
+            result = cgutils.alloca_once(builder, result_type)
+            builder.store(cgutils.get_null_value(result_type), result)
+            excinfo = cgutils.alloca_once(builder, ir.PointerType(excinfo_t), name="excinfo")
+            flat = list(conv._get_arg_packer(argtypes).as_arguments(builder, values))
+            code = builder.call(callee, [result, excinfo] + flat)
+            status = conv._get_return_status(builder, code, builder.load(excinfo))
+            with builder.if_then(status.is_error, likely=False):
+                conv.return_status_propagate(builder, status)
+            return context.get_returned_value(builder, restype, builder.load(result))
+
+        return signature, codegen
+
+    return call
+
+
+call_none = _indirect_call(types.none)
+call_bool = _indirect_call(types.boolean)
+call_float = _indirect_call(types.float64)
+call_int = _indirect_call(types.int64)
+
+_ADDRESSES: dict = {}
+
+
+def kernel_address(dispatcher, argtypes: tuple) -> int:
+    """Machine address of ``dispatcher`` compiled for ``argtypes`` (compiled or loaded from
+    numba's disk cache on first use; remembered for the process)."""
+    key = (dispatcher, tuple(argtypes))
+    address = _ADDRESSES.get(key)
+    if address is None:
+        argtypes = tuple(argtypes)
+        result = dispatcher.overloads.get(argtypes)
+        if result is None:
+            # Entry points of armlab.dynamics refuse to compile from a call (one signature
+            # each); compiling a stated signature here is what they are waiting for.
+            can_compile = dispatcher._can_compile
+            dispatcher._can_compile = True
+            try:
+                dispatcher.compile(argtypes)
+            finally:
+                dispatcher._can_compile = can_compile
+            result = dispatcher.overloads[argtypes]
+        address = result.library.get_pointer_to_function(result.fndesc.llvm_func_name)
+        _ADDRESSES[key] = address
+    return address

@@ -1,0 +1,95 @@
+"""A robot as one packed float64 array, and the kernels that take it.
+
+Compiled code pays for every array it receives: unboxing one from Python costs ~0.1 µs, and
+compiling a function whose arguments hold the 17 arrays of ``RobotArrays`` and the 17 of a
+``DynamicsWorkspace`` costs ~0.6 s before it does anything.  The public dynamics functions and
+the simulation loop therefore pass a robot as one array and rebuild the named tuples of views
+inside compiled code (no copy, no allocation):
+
+    [n | joint_type (n, int64 bits) | zero wrench (6) | workspace (workspace_size(n)) |
+     the float fields of RobotArrays (pack_robot)]
+
+Kernels over a packed robot (all arrays float64, C-contiguous; (n,) unless stated):
+
+    forward_dynamics_packed(packed, q, qd, tau, h_e, qdd_out) -> 0 | 1 wrong length | 2 B not PD
+    kinetic_energy_packed(packed, q, qd) -> T [J] (NaN for a wrong length)
+    measure_packed(packed, q, qd, work, R_0e, p_0e, v_e)   pose (3, 3), (3,) and twist (6,) of Σ_e
+                                                           in Σ_0; work (18 n,) scratch
+
+The workspace inside is scratch: two threads must not use one packed array at once.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from armlab.kernels.dynamics import (
+    forward_dynamics_into,
+    kernel,
+    workspace_from_buffer,
+    workspace_size,
+)
+from armlab.kernels.energy import kinetic_energy_kernel
+from armlab.kernels.kinematics import end_effector_into, geometric_jacobian_into, joint_frames_into
+from armlab.kernels.packed import buffer_view, pack_robot, unpack_robot
+from armlab.model.robot import RobotArrays
+
+HEAD = 7
+
+
+def pack_plant(arrays: RobotArrays) -> np.ndarray:
+    """The packed array of a robot (layout in the module docstring), workspace zeroed."""
+    joint_type, data = pack_robot(arrays)
+    n = joint_type.shape[0]
+    return np.concatenate([[float(n)], joint_type.view(np.float64), np.zeros(6),
+                           np.zeros(workspace_size(n)), data])
+
+
+@njit(cache=True, _nrt=False, inline="always")
+def unpack_plant(packed):
+    """(n, m, ws, zero wrench) of a packed robot: views into ``packed``."""
+    n = int(packed[0])
+    joint_type = buffer_view(packed, 1, n, np.int64)
+    size = workspace_size(n)
+    ws = workspace_from_buffer(buffer_view(packed, HEAD + n, size, np.float64), n)
+    start = HEAD + n + size
+    m = unpack_robot(joint_type, buffer_view(packed, start, packed.shape[0] - start, np.float64))
+    return n, m, ws, buffer_view(packed, 1 + n, 6, np.float64)
+
+
+@kernel
+def forward_dynamics_packed(packed, q, qd, tau, h_e, qdd_out):
+    """q̈ of (D1) by :func:`~armlab.kernels.dynamics.forward_dynamics_into`.
+    Returns 0 (done), 1 (a wrong length: nothing touched) or 2 (B not positive definite)."""
+    n, m, ws, _ = unpack_plant(packed)
+    if (q.shape[0] != n or qd.shape[0] != n or tau.shape[0] != n or h_e.shape[0] != 6
+            or qdd_out.shape[0] != n):
+        return 1
+    return 0 if forward_dynamics_into(m, ws, q, qd, tau, h_e, qdd_out) else 2
+
+
+@kernel
+def kinetic_energy_packed(packed, q, qd):
+    """Kinetic energy (D6) [J], or NaN for a wrong length."""
+    n, m, ws, _ = unpack_plant(packed)
+    if q.shape[0] != n or qd.shape[0] != n:
+        return np.nan
+    return kinetic_energy_kernel(m, ws, q, qd)
+
+
+@kernel
+def measure_packed(packed, q, qd, work, R_0e, p_0e, v_e):
+    """Pose (R_0e, p_0e) and twist v_e = J(q) q̇ of Σ_e in Σ_0 (K2, K3); ``work`` (18 n,)."""
+    n, m, ws, _ = unpack_plant(packed)
+    R_frames = buffer_view(work, 0, (n, 3, 3), np.float64)
+    p_frames = buffer_view(work, 9 * n, (n, 3), np.float64)
+    J = buffer_view(work, 12 * n, (6, n), np.float64)
+    joint_frames_into(m, q, R_frames, p_frames)
+    end_effector_into(m, R_frames[n - 1], p_frames[n - 1], R_0e, p_0e)
+    geometric_jacobian_into(m, R_frames, p_frames, p_0e, J)
+    for r in range(6):
+        acc = 0.0
+        for c in range(n):
+            acc += J[r, c] * qd[c]
+        v_e[r] = acc
