@@ -9,7 +9,7 @@ loop with the PRP's closed-form dynamics, side by side in one run.
 * **Gain sweep**: 1000 runs of the A7 scenario (shortened to 1 s) with different gains,
   ``simulate_batch`` on all cores (threads: the compiled loop releases the GIL) vs one core.
 * **Compile time and time to first result**: a fresh process running the A7 scenario, with
-  an empty loop cache (compiles) and again with the cache filled.
+  an empty numba cache (compiles every kernel, the law and the loop) and again with it filled.
 
 Single-run times are the best of several repeats of thread CPU time (less sensitive to other
 processes on a shared machine); the sweep uses wall time.  Targets (issue): armlab ≤ 3× the
@@ -269,8 +269,8 @@ def fresh_process_case():
             "print(f'{t1 - t0:.3f} {t2 - t1:.3f}')")
     print("\nFresh process: import armlab, then the A7 scenario (10 s at 1 kHz)")
     with tempfile.TemporaryDirectory() as empty:
-        for label, env in (("empty loop cache (compiles the loop)", {"ARMLAB_CACHE_DIR": empty}),
-                           ("loop cache filled", {"ARMLAB_CACHE_DIR": empty})):
+        for label, env in (("empty numba cache (compiles every kernel)", {"NUMBA_CACHE_DIR": empty}),
+                           ("numba cache filled", {"NUMBA_CACHE_DIR": empty})):
             start = time.perf_counter()
             out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                                  env={**os.environ, **env}, check=True).stdout.split()

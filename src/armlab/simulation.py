@@ -293,8 +293,9 @@ def _run_rk4(setup, cparams, meta, on_divergence):
 
 def _rk4(setup, cparams, fset, iset, out):
     fn, pp, work = setup.workspace(cparams)
-    return integrators.rk4_core(fn, pp, cparams, setup.eparams, setup.dist, setup.x0.copy(), work,
-                                fset, iset, setup.lim, setup.q_lo, setup.q_hi, out)
+    return integrators.rk4_run(integrators.core_address("rk4"), fn, pp, cparams, setup.eparams,
+                               setup.dist, setup.x0.copy(), work, fset, iset, setup.lim, setup.q_lo,
+                               setup.q_hi, out)
 
 
 def _run_adaptive(setup, cparams, meta, on_divergence, rtol, atol, integrator):
@@ -302,6 +303,7 @@ def _run_adaptive(setup, cparams, meta, on_divergence, rtol, atol, integrator):
 
     n, width = setup.n, setup.sig_width
     fn, pp, work = setup.workspace(cparams)
+    rhs_core, log_core = integrators.core_address("rhs"), integrators.core_address("log")
     has_env = setup.environment is not None
     xdot = np.zeros_like(setup.x0)
     grid = np.arange(setup.n_steps + 1) * setup.dt
@@ -309,8 +311,8 @@ def _run_adaptive(setup, cparams, meta, on_divergence, rtol, atol, integrator):
     start = time.perf_counter()
 
     def rhs(t, x, call_law, z_rate):
-        integrators.rhs(fn, t, x, pp, cparams, setup.eparams, setup.dist, has_env, call_law, z_rate,
-                        setup.lim, work, width, xdot)
+        integrators.rhs(rhs_core, fn, t, x, pp, cparams, setup.eparams, setup.dist, has_env,
+                        call_law, z_rate, setup.lim, work, width, xdot)
         return xdot.copy()
 
     x = setup.x0.copy()
@@ -324,8 +326,8 @@ def _run_adaptive(setup, cparams, meta, on_divergence, rtol, atol, integrator):
         if setup.sampled:
             if first > 0:
                 x[2 * n:] += setup.every * setup.dt * zdot_held
-            integrators.rhs(fn, grid[first], x, pp, cparams, setup.eparams, setup.dist, has_env, True,
-                            0.0, setup.lim, work, width, xdot)
+            integrators.rhs(rhs_core, fn, grid[first], x, pp, cparams, setup.eparams, setup.dist,
+                            has_env, True, 0.0, setup.lim, work, width, xdot)
             zdot_held = work[integrators.zdot_slice(n, setup.k)].copy()
         solution = solve_ivp(rhs, (grid[first], grid[last]), x, method=integrator, rtol=rtol,
                              atol=atol, t_eval=grid[first:last + 1],
@@ -336,9 +338,10 @@ def _run_adaptive(setup, cparams, meta, on_divergence, rtol, atol, integrator):
                                                   setup.ke_max, work)
         if bad >= 0:
             status, step, joint, keep = code, first + bad, where, bad
-        integrators.log_rows(fn, grid[first:first + keep], np.ascontiguousarray(xs[:keep]), pp,
-                             cparams, setup.eparams, setup.dist, has_env, not setup.sampled,
-                             setup.lim, work, width, out, rows)
+        integrators.log_rows(log_core, fn, grid[first:first + keep],
+                             np.ascontiguousarray(xs[:keep]), pp, cparams, setup.eparams,
+                             setup.dist, has_env, not setup.sampled, setup.lim, work, width, out,
+                             rows)
         rows += keep
         if status == 0 and solution.status != 0:
             status, step = 1, first + keep

@@ -19,10 +19,10 @@ A controller is a **frozen dataclass** subclassing :class:`Controller`.  It hold
   (``plant.with_link_mass("link4", 0.16)``); the plant passed to ``simulate`` is the truth;
 * its parameters (gains, reference, options) as ordinary fields.
 
-It points at its compiled law through the class attribute ``law``: a **module-level**
-``@numba.njit(cache=True)`` function (the simulator imports it by module and name to build a
-compiled loop per controller/environment pair, so closures and lambdas are refused) with the
-signature
+It points at its compiled law through the class attribute ``law``: a ``numba.njit``
+function (module-level with ``cache=True``, so that its compile is kept on disk; the
+simulator's loop calls it through its machine address, ``armlab.kernels.integrators``) with
+the signature
 
     law(t, q, qd, z, h_e, params, tau_out, zdot_out, signals_out) -> None
 
@@ -93,7 +93,7 @@ Environments
 ------------
 An environment (free space, a spring, a wall) maps the end-effector motion to the wrench
 h_e the end effector exerts on it.  It is a frozen dataclass subclassing
-:class:`Environment` whose class attribute ``law`` is a module-level njit function
+:class:`Environment` whose class attribute ``law`` is an njit function, like a controller's
 
     law(t, R_0e, p_0e, v_e, params, h_e_out) -> None
 
@@ -108,7 +108,6 @@ measurement.
 from __future__ import annotations
 
 import abc
-import importlib
 from dataclasses import dataclass
 
 import numpy as np
@@ -153,18 +152,6 @@ class Signal:
         prismatic, revolute = table[kind]
         units = [prismatic if j.kind == "prismatic" else revolute for j in robot.joints]
         return cls(name, tuple(robot.joint_names), tuple(units))
-
-
-def law_location(law) -> tuple[str, str]:
-    """(module, name) under which a compiled law can be imported; refuses anything else."""
-    module_name = getattr(getattr(law, "py_func", None), "__module__", None)
-    name = getattr(getattr(law, "py_func", None), "__name__", None)
-    if module_name is None or not hasattr(law, "signatures"):
-        raise ProtocolError(f"law {law!r} is not a numba.njit function")
-    module = importlib.import_module(module_name)
-    if getattr(module, name, None) is not law:
-        raise ProtocolError(f"law {module_name}.{name} must be a module-level njit function")
-    return module_name, name
 
 
 @dataclass(frozen=True)

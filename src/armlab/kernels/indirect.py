@@ -25,7 +25,8 @@ from numba.core import cgutils
 from numba.core.callconv import excinfo_t
 from numba.extending import intrinsic
 
-__all__ = ["call_bool", "call_float", "call_int", "call_none", "kernel_address"]
+__all__ = ["call_bool", "call_float", "call_int", "call_none", "call_status", "kernel_address",
+           "stack_address"]
 
 
 def _indirect_call(restype):
@@ -60,10 +61,24 @@ def _indirect_call(restype):
     return call
 
 
+@intrinsic
+def stack_address(typingctx, value):
+    """Address (int64) of a copy of ``value`` in the calling function's stack frame, valid
+    until that function returns: how a cached, type-independent loop hands a parameter tuple
+    to a trampoline compiled for the tuple's type, which reads it back as ``pointer[0]``
+    (argument type ``types.CPointer(tuple_type)``; a pointer and an int64 are passed alike)."""
+    def codegen(context, builder, sig, args):
+        slot = cgutils.alloca_once_value(builder, args[0])
+        return builder.ptrtoint(slot, ir.IntType(64))
+
+    return types.int64(value), codegen
+
+
 call_none = _indirect_call(types.none)
 call_bool = _indirect_call(types.boolean)
 call_float = _indirect_call(types.float64)
 call_int = _indirect_call(types.int64)
+call_status = _indirect_call(types.UniTuple(types.int64, 4))
 
 _ADDRESSES: dict = {}
 

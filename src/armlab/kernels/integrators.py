@@ -3,17 +3,22 @@ plant through machine addresses (``armlab.kernels.indirect``).
 
 The whole closed loop — plant forward dynamics, environment, control law (with its reference),
 saturation, disturbance and the RK4 update — runs without returning to the interpreter.  The
-loop is compiled once per pair of parameter types (controller, environment) and cached on
-disk like every kernel; the law, the environment law and the plant's kernels are compiled
-and cached on their own and called indirectly, so a new controller costs the compile of its
-own law and a small loop, and the plant's dynamics can be any kernel with the signature of
-``armlab.kernels.plant.forward_dynamics_packed`` (the general one, or a robot's closed form).
+loops (``rk4_core``, ``rhs_core``, ``log_core``) are compiled once for every controller and
+robot and cached on disk like every kernel: they call the law, the environment and the
+plant's kernels through their addresses, and receive the controller's and environment's
+parameter tuples as stack addresses that small trampolines, compiled per tuple type, read
+back.  A new controller therefore costs the compile of its own law, a trampoline and an entry
+that unboxes its parameters (``rk4_run`` …), and the plant's dynamics can be any kernel with
+the signature of ``armlab.kernels.plant.forward_dynamics_packed`` (the general one, or a
+robot's closed form).
 
 The plant travels as one packed array ``pp`` (``armlab.kernels.plant``): arguments made of
 many arrays cost compile time in every function that receives them.  ``fn`` (int64 array)
 holds the addresses, in this order (``FN_*``):
 
+    law_trampoline(cp, law, t, q, qd, z, h_e, tau_out, zdot_out, signals_out)
     law(t, q, qd, z, h_e, cparams, tau_out, zdot_out, signals_out)
+    env_trampoline(ep, env, t, R_0e, p_0e, v_e, h_e_out)
     env(t, R_0e, p_0e, v_e, eparams, h_e_out)
     forward_dynamics(pp, q, qd, tau, h_e, qdd_out) -> 0 ok | 1 bad length | 2 B not PD
     kinetic_energy(pp, q, qd) -> T
@@ -54,11 +59,19 @@ import numpy as np
 from numba import njit, typeof, types
 
 from armlab.disturbances import disturbance_into
-from armlab.kernels.indirect import call_float, call_int, call_none, kernel_address
+from armlab.kernels.indirect import (
+    call_float,
+    call_int,
+    call_none,
+    call_status,
+    kernel_address,
+    stack_address,
+)
 from armlab.kernels.packed import buffer_view
 from armlab.kernels.plant import forward_dynamics_packed, kinetic_energy_packed, measure_packed
 
-FN_LAW, FN_ENV, FN_FORWARD_DYNAMICS, FN_KINETIC_ENERGY, FN_MEASURE, FN_DISTURBANCE = range(6)
+(FN_LAW_TRAMPOLINE, FN_LAW, FN_ENV_TRAMPOLINE, FN_ENV, FN_FORWARD_DYNAMICS, FN_KINETIC_ENERGY,
+ FN_MEASURE, FN_DISTURBANCE) = range(8)
 
 # The loop never allocates, so it runs without reference counting (no atomic increments for
 # every array taken out of the parameter tuples at every call).
@@ -88,18 +101,38 @@ def log_columns(n: int, k: int, s: int) -> dict:
     return columns
 
 
+_VEC = types.float64[::1]
+_MAT = types.float64[:, ::1]
+_F64 = types.float64
+_I64 = types.int64
+_IVEC = types.int64[::1]
+
+
+@njit(cache=True, _nrt=False)
+def law_trampoline(cp, law, t, q, qd, z, h_e, tau_out, zdot_out, signals_out):
+    """The law at ``law`` called with the parameter tuple at ``cp`` (a CPointer to it)."""
+    call_none(law, (t, q, qd, z, h_e, cp[0], tau_out, zdot_out, signals_out))
+
+
+@njit(cache=True, _nrt=False)
+def env_trampoline(ep, env, t, R_0e, p_0e, v_e, h_e_out):
+    """The environment law at ``env`` called with the parameter tuple at ``ep``."""
+    call_none(env, (t, R_0e, p_0e, v_e, ep[0], h_e_out))
+
+
 def addresses(law, env_law, cparams, eparams, forward_dynamics=None):
     """The ``fn`` array for a loop with these parameters (compiles what is missing).
 
     The argument types are those ``stage`` passes; ``forward_dynamics`` defaults to the
     general :func:`~armlab.kernels.plant.forward_dynamics_packed`."""
-    vec = types.float64[::1]
-    mat = types.float64[:, ::1]
-    f64 = types.float64
+    vec, mat, f64 = _VEC, _MAT, _F64
+    ctype, etype = typeof(cparams), typeof(eparams)
     fd = forward_dynamics_packed if forward_dynamics is None else forward_dynamics
     return np.array([
-        kernel_address(law, (f64, vec, vec, vec, vec, typeof(cparams), vec, vec, vec)),
-        kernel_address(env_law, (f64, mat, vec, vec, typeof(eparams), vec)),
+        kernel_address(law_trampoline, (types.CPointer(ctype), _I64, f64) + (vec,) * 7),
+        kernel_address(law, (f64, vec, vec, vec, vec, ctype, vec, vec, vec)),
+        kernel_address(env_trampoline, (types.CPointer(etype), _I64, f64, mat, vec, vec, vec)),
+        kernel_address(env_law, (f64, mat, vec, vec, etype, vec)),
         kernel_address(fd, (vec,) * 6),
         kernel_address(kinetic_energy_packed, (vec,) * 3),
         kernel_address(measure_packed, (vec, vec, vec, vec, mat, vec, vec)),
@@ -150,7 +183,7 @@ def scratch_views(work, n, k, s):
 
 
 @njit(cache=True, _nrt=False, inline="always")
-def stage(fn, t, x, n, pp, cparams, eparams, dist, has_env, call_law, z_rate, lim, sc, xdot):
+def stage(fn, t, x, n, pp, cp, ep, dist, has_env, call_law, z_rate, lim, sc, xdot):
     """ẋ at (t, x) (S1, S2); returns the forward-dynamics status (0 ok, 2 B not PD)."""
     q, qd, z, tau_c, tau_a, tau_d, tau_p, h_e, zdot, sig, Re, pe, ve, qdd = sc[:14]
     k = z.shape[0]
@@ -161,9 +194,9 @@ def stage(fn, t, x, n, pp, cparams, eparams, dist, has_env, call_law, z_rate, li
         z[i] = x[2 * n + i]
     if has_env:
         call_none(fn[FN_MEASURE], (pp, q, qd, sc[16], Re, pe, ve))
-        call_none(fn[FN_ENV], (t, Re, pe, ve, eparams, h_e))
+        call_none(fn[FN_ENV_TRAMPOLINE], (ep, fn[FN_ENV], t, Re, pe, ve, h_e))
     if call_law:
-        call_none(fn[FN_LAW], (t, q, qd, z, h_e, cparams, tau_c, zdot, sig))
+        call_none(fn[FN_LAW_TRAMPOLINE], (cp, fn[FN_LAW], t, q, qd, z, h_e, tau_c, zdot, sig))
     for i in range(n):
         value = tau_c[i]
         if value > lim[i]:
@@ -224,9 +257,10 @@ def log_row(row, t, x, n, sc, out):
 
 
 @loop_kernel
-def rk4_core(fn, pp, cparams, eparams, dist, x, work, fset, iset, lim, q_lo, q_hi, out):
+def rk4_core(fn, pp, cp, ep, dist, x, work, fset, iset, lim, q_lo, q_hi, out):
     """Fixed-step RK4 closed loop (S3).  Returns (status, rows written, step, joint).
 
+    cp, ep: stack addresses of the controller's and environment's parameter tuples;
     fset = [t0, dt, ke_max]; iset = [n, n_steps, every, log_every, has_env, energy_every,
     sampled, signal columns]; x (m,) the initial state (overwritten); ``work`` scratch.
     """
@@ -256,7 +290,7 @@ def rk4_core(fn, pp, cparams, eparams, dist, x, work, fset, iset, lim, q_lo, q_h
                 h = 0.5 * dt
             for i in range(m):
                 xt[i] = x[i] + h * K[s - 1, i] if s > 0 else x[i]
-            status = stage(fn, t + h, xt, n, pp, cparams, eparams, dist, has_env,
+            status = stage(fn, t + h, xt, n, pp, cp, ep, dist, has_env,
                            sample if s == 0 else not sampled, z_rate, lim, sc, K[s])
             if s == 0:
                 if j % log_every == 0:
@@ -276,13 +310,12 @@ def rk4_core(fn, pp, cparams, eparams, dist, x, work, fset, iset, lim, q_lo, q_h
 
 
 @loop_kernel
-def rhs(fn, t, x, pp, cparams, eparams, dist, has_env, call_law, z_rate, lim, work, sig_width,
-        xdot):
+def rhs_core(fn, t, x, pp, cp, ep, dist, has_env, call_law, z_rate, lim, work, sig_width, xdot):
     """ẋ for the adaptive integrator: the same ``stage`` as the RK4 loop; returns its status.
-    ż of the last call is left in ``work`` (``scratch_views(...)[8]``)."""
+    ż of the last call is left in ``work`` (:func:`zdot_slice`)."""
     n = int(pp[0])
     sc = scratch_views(work, n, x.shape[0] - 2 * n, sig_width)
-    return stage(fn, t, x, n, pp, cparams, eparams, dist, has_env, call_law, z_rate, lim, sc, xdot)
+    return stage(fn, t, x, n, pp, cp, ep, dist, has_env, call_law, z_rate, lim, sc, xdot)
 
 
 @loop_kernel
@@ -299,15 +332,56 @@ def check_rows(fn, pp, xs, q_lo, q_hi, ke_max, work):
 
 
 @loop_kernel
-def log_rows(fn, ts, xs, pp, cparams, eparams, dist, has_env, call_law, lim, work, sig_width, out,
-             start):
+def log_core(fn, ts, xs, pp, cp, ep, dist, has_env, call_law, lim, work, sig_width, out, start):
     """Stage k₁ at every (ts[r], xs[r]) logged into rows start + r (used after solve_ivp)."""
     n = int(pp[0])
     sc = scratch_views(work, n, xs.shape[1] - 2 * n, sig_width)
     xdot = sc[15][0]
     for r in range(ts.shape[0]):
-        stage(fn, ts[r], xs[r], n, pp, cparams, eparams, dist, has_env, call_law, 1.0, lim, sc, xdot)
+        stage(fn, ts[r], xs[r], n, pp, cp, ep, dist, has_env, call_law, 1.0, lim, sc, xdot)
         log_row(start + r, ts[r], xs[r], n, sc, out)
+
+
+_CORE_TYPES = {
+    "rk4": (_IVEC, _VEC, _I64, _I64, _VEC, _VEC, _VEC, _VEC,
+            _IVEC, _VEC, _VEC, _VEC, _MAT),
+    "rhs": (_IVEC, _F64, _VEC, _VEC, _I64, _I64, _VEC, types.boolean,
+            types.boolean, _F64, _VEC, _VEC, _I64, _VEC),
+    "log": (_IVEC, _VEC, _MAT, _VEC, _I64, _I64, _VEC, types.boolean,
+            types.boolean, _VEC, _VEC, _I64, _MAT, _I64),
+}
+_CORES = {"rk4": rk4_core, "rhs": rhs_core, "log": log_core}
+
+
+def core_address(name: str) -> int:
+    """Address of the loop ``name`` ("rk4", "rhs" or "log"), for the entries below."""
+    return kernel_address(_CORES[name], _CORE_TYPES[name])
+
+
+# Entries: compiled per (controller, environment) parameter types, they only unbox the
+# parameters, put them on the stack and call the shared loop.  ``nogil`` lets gain sweeps run
+# on all cores.
+@loop_kernel
+def rk4_run(core, fn, pp, cparams, eparams, dist, x, work, fset, iset, lim, q_lo, q_hi, out):
+    """:func:`rk4_core` on these parameters: (status, rows written, step, joint)."""
+    return call_status(core, (fn, pp, stack_address(cparams), stack_address(eparams), dist, x,
+                              work, fset, iset, lim, q_lo, q_hi, out))
+
+
+@loop_kernel
+def rhs(core, fn, t, x, pp, cparams, eparams, dist, has_env, call_law, z_rate, lim, work,
+        sig_width, xdot):
+    """:func:`rhs_core` on these parameters."""
+    return call_int(core, (fn, t, x, pp, stack_address(cparams), stack_address(eparams), dist,
+                           has_env, call_law, z_rate, lim, work, sig_width, xdot))
+
+
+@loop_kernel
+def log_rows(core, fn, ts, xs, pp, cparams, eparams, dist, has_env, call_law, lim, work, sig_width,
+             out, start):
+    """:func:`log_core` on these parameters."""
+    call_none(core, (fn, ts, xs, pp, stack_address(cparams), stack_address(eparams), dist, has_env,
+                     call_law, lim, work, sig_width, out, start))
 
 
 @njit(cache=True)

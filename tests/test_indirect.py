@@ -1,0 +1,98 @@
+"""Indirect calls of compiled kernels (armlab.kernels.indirect) and the loop's scratch layout."""
+
+import numpy as np
+import pytest
+from numba import njit, typeof, types
+
+import armlab
+from armlab.kernels import integrators
+from armlab.kernels.indirect import call_float, call_int, call_none, kernel_address, stack_address
+from armlab.kernels.plant import forward_dynamics_packed, kinetic_energy_packed, pack_plant
+
+VEC = types.float64[::1]
+
+
+@njit(cache=False)
+def _energy_through(address, packed, q, qd):
+    return call_float(address, (packed, q, qd))
+
+
+@njit(cache=False)
+def _forward_through(address, packed, q, qd, tau, h_e, out):
+    return call_int(address, (packed, q, qd, tau, h_e, out))
+
+
+def test_indirect_calls_return_what_direct_calls_return():
+    robot = armlab.load_robot("puma560")
+    rng = np.random.default_rng(3)
+    q, qd, tau = rng.normal(size=(3, robot.n))
+    h_e = rng.normal(size=6)
+    packed = pack_plant(robot.arrays)
+    energy = _energy_through(kernel_address(kinetic_energy_packed, (VEC,) * 3), packed, q, qd)
+    assert energy == armlab.kinetic_energy(robot, q, qd)
+    out = np.zeros(robot.n)
+    status = _forward_through(kernel_address(forward_dynamics_packed, (VEC,) * 6), packed, q, qd, tau,
+                              h_e, out)
+    assert status == 0
+    np.testing.assert_array_equal(out, armlab.forward_dynamics(robot, q, qd, tau, h_e=h_e))
+    # A wrong length comes back as the kernel's status, memory untouched.
+    assert _forward_through(kernel_address(forward_dynamics_packed, (VEC,) * 6), packed, q[:2], qd,
+                            tau, h_e, out) == 1
+
+
+@njit(cache=False)
+def _divide(a, b, out):
+    out[0] = a[0] // b[0]
+
+
+@njit(cache=False)
+def _divide_through(address, a, b, out):
+    call_none(address, (a, b, out))
+    return out[0]
+
+
+def test_an_exception_in_the_callee_reaches_the_caller():
+    vec_i = types.int64[::1]
+    address = kernel_address(_divide, (vec_i, vec_i, vec_i))
+    out = np.zeros(1, dtype=np.int64)
+    assert _divide_through(address, np.array([7]), np.array([2]), out) == 3
+    with pytest.raises(ZeroDivisionError):
+        _divide_through(address, np.array([7]), np.array([0]), out)
+
+
+@njit(cache=False)
+def _read_back(pointer):
+    values, scale = pointer[0]
+    return values[1] * scale
+
+
+@njit(cache=False)
+def _through_the_stack(address, params):
+    return call_float(address, (stack_address(params),))
+
+
+def test_a_parameter_tuple_crosses_as_a_stack_address():
+    params = (np.array([1.0, 2.5, 4.0]), 3.0)
+    address = kernel_address(_read_back, (types.CPointer(typeof(params)),))
+    assert _through_the_stack(address, params) == 7.5
+
+
+@njit(cache=False)
+def _scratch_extent(work, n, k, s):
+    views = integrators.scratch_views(work, n, k, s)
+    last = views[-1]
+    return (last.ctypes.data - work.ctypes.data) // 8 + last.size
+
+
+@pytest.mark.parametrize("n, k, s", [(1, 0, 0), (3, 12, 7), (6, 2, 30)])
+def test_the_scratch_views_fill_the_scratch_array_exactly(n, k, s):
+    work = np.zeros(integrators.work_size(n, k, s))
+    assert _scratch_extent(work, n, k, s) == work.size
+
+
+def test_the_log_columns_cover_what_a_row_writes():
+    columns = integrators.log_columns(3, 2, 5)
+    widths = [c.stop - c.start for c in columns.values()]
+    assert widths == [1, 3, 3, 3, 3, 2, 5, 3, 3, 6]
+    assert list(columns.values())[0].start == 0
+    assert all(a.stop == b.start for a, b in zip(list(columns.values()), list(columns.values())[1:]))
