@@ -40,12 +40,13 @@ import time
 
 import numpy as np
 
+from armlab.closed_form import DYNAMICS_CHOICES, ClosedFormUnavailable, forward_dynamics_kernel
 from armlab.control.base import Controller, Environment, ProtocolError, Signal
 from armlab.disturbances import encode_disturbances
 from armlab.errors import ArmlabError
 from armlab.kernels import integrators
 from armlab.kernels.integrators import no_environment_law
-from armlab.kernels.plant import pack_plant
+from armlab.kernels.plant import forward_dynamics_packed, pack_plant
 from armlab.results import SimulationResult
 
 STATUS = {1: "non-finite state", 2: "joint limit exceeded", 3: "runaway kinetic energy",
@@ -88,7 +89,8 @@ class _Setup:
     """Everything ``simulate`` hands to the compiled code, checked once."""
 
     def __init__(self, plant, controller, q0, qd0, t_final, dt, control_period, torque_limit,
-                 disturbance, environment, log_every, limit_margin, max_kinetic_energy):
+                 disturbance, environment, log_every, limit_margin, max_kinetic_energy,
+                 dynamics="auto"):
         if not isinstance(controller, Controller):
             raise SimulationError(f"controller: {type(controller).__name__} is not an armlab Controller")
         n = plant.n
@@ -132,6 +134,14 @@ class _Setup:
         self.eparams = environment.params() if environment is not None else (np.zeros(1),)
         self.signals: tuple[Signal, ...] = tuple(controller.signals())
         self.sig_width = sum(s.width for s in self.signals)
+        if dynamics not in DYNAMICS_CHOICES:
+            raise SimulationError(f"dynamics: {dynamics!r} is not one of {', '.join(DYNAMICS_CHOICES)}")
+        try:
+            self.forward_dynamics = forward_dynamics_kernel(plant, dynamics)
+            self.dynamics = ("numeric" if self.forward_dynamics is forward_dynamics_packed
+                             else "closed_form")
+        except ClosedFormUnavailable as error:
+            raise SimulationError(f"dynamics: {error}") from None
         self.law = _compiled(type(controller).law, f"{type(controller).__name__}.law")
         self.env_law = _compiled(self.env_law, f"{type(environment).__name__}.law")
         self.rows = self.n_steps // self.log_every + 1
@@ -139,15 +149,20 @@ class _Setup:
     def workspace(self, cparams):
         """(fn, pp, work) of one run: the loop's addresses, the packed plant (its own copy:
         it holds scratch) and the loop's scratch memory."""
-        fn = integrators.addresses(self.law, self.env_law, cparams, self.eparams)
+        fn = integrators.addresses(self.law, self.env_law, cparams, self.eparams,
+                                   self.forward_dynamics)
         work = np.zeros(integrators.work_size(self.n, self.k, self.sig_width))
         return fn, pack_plant(self.plant.arrays), work
 
     def outputs(self, rows=None):
-        """The log: one (rows, columns) array, columns of ``integrators.log_columns``."""
+        """The flat log of ``rows`` rows (``integrators.log_views`` gives its blocks).  Every
+        row the loop reports is written in full, so it need not be zeroed."""
         rows = self.rows if rows is None else rows
         columns = integrators.log_columns(self.n, self.k, self.sig_width)
-        return np.zeros((rows, columns["h_e"].stop))
+        return np.empty(rows * columns["h_e"].stop)
+
+    def views(self, out):
+        return integrators.log_views(out, self.n, self.k, self.sig_width)
 
     def settings(self):
         fset = np.array([0.0, self.dt, self.ke_max])
@@ -156,10 +171,11 @@ class _Setup:
                         dtype=np.int64)
         return fset, iset
 
-    def result(self, out, rows, method, meta, status="ok", diagnosis=""):
-        columns = integrators.log_columns(self.n, self.k, self.sig_width)
+    def result(self, views, rows, method, meta, status="ok", diagnosis=""):
+        """The result of the first ``rows`` rows of the log blocks ``views`` (no copies: the
+        arrays of the result are views of one log)."""
         o_t, o_q, o_qd, o_qdd, o_tau, o_z, o_sig, o_cmd, o_dist, o_he = (
-            np.ascontiguousarray(out[:rows, c]) for c in columns.values())
+            v[:rows] for v in views.values())
         o_t = o_t[:, 0]
         plant, controller = self.plant, self.controller
         labels = {"q": tuple(plant.joint_names), "qd": tuple(plant.joint_names),
@@ -187,14 +203,14 @@ class _Setup:
             labels["h_e"] = ("fx", "fy", "fz", "mx", "my", "mz")
             units["h_e"] = ("N",) * 3 + ("N·m",) * 3
         info = {"plant": plant.name, "controller": controller.describe(), "method": method,
-                "dt": self.dt, "t_final": self.n_steps * self.dt,
+                "dt": self.dt, "t_final": self.n_steps * self.dt, "dynamics": self.dynamics,
                 "control_period": self.every * self.dt if self.sampled else None,
                 "torque_limit": self.lim.tolist(), "log_every": self.log_every,
                 "disturbance": _describe_terms(self.disturbance),
                 "environment": self.environment.describe() if self.environment is not None else None}
         info.update(meta or {})
-        return SimulationResult(t=o_t.copy(), q=o_q.copy(), qd=o_qd.copy(), qdd=o_qdd.copy(),
-                                tau=o_tau.copy(), z=o_z.copy(), signals=signals, labels=labels,
+        return SimulationResult(t=o_t, q=o_q, qd=o_qd, qdd=o_qdd,
+                                tau=o_tau, z=o_z, signals=signals, labels=labels,
                                 units=units, meta=info, status=status, diagnosis=diagnosis)
 
     def diagnosis(self, status, step, joint, t):
@@ -246,7 +262,7 @@ def _finish(setup, result, status, step, joint, on_divergence):
 def simulate(plant, controller, *, q0, qd0=None, t_final, dt, method="rk4", control_period=None,
              torque_limit=None, disturbance=None, environment=None, log_every=1,
              limit_margin=0.5, max_kinetic_energy=1e6, rtol=1e-10, atol=1e-12,
-             integrator="DOP853", on_divergence="raise", meta=None) -> SimulationResult:
+             integrator="DOP853", on_divergence="raise", dynamics="auto", meta=None) -> SimulationResult:
     """Simulate ``plant`` under ``controller`` from (q0, qd0) over [0, t_final].
 
     Parameters
@@ -265,6 +281,9 @@ def simulate(plant, controller, *, q0, qd0=None, t_final, dt, method="rk4", cont
     limit_margin : a joint further than this fraction of its range outside its limits diverges.
     max_kinetic_energy : [J] bound of ½ q̇ᵀ B q̇ (checked every 10 steps).
     on_divergence : "raise" (``SimulationDiverged`` with ``.result``) or "return".
+    dynamics : the plant's forward dynamics: "auto" (its closed form when it has at most
+        ``armlab.closed_form.AUTO_MAX_JOINTS`` joints, else the RNEA/CRBA kernels),
+        "closed_form" or "numeric" (``armlab.closed_form``).
     meta : extra JSON-able entries for ``result.meta`` (scenario name, …).
     """
     if method not in ("rk4", "adaptive"):
@@ -275,7 +294,7 @@ def simulate(plant, controller, *, q0, qd0=None, t_final, dt, method="rk4", cont
     if on_divergence not in ("raise", "return"):
         raise SimulationError(f"on_divergence: {on_divergence!r} is not 'raise' or 'return'")
     setup = _Setup(plant, controller, q0, qd0, t_final, dt, control_period, torque_limit,
-                   disturbance, environment, log_every, limit_margin, max_kinetic_energy)
+                   disturbance, environment, log_every, limit_margin, max_kinetic_energy, dynamics)
     if method == "rk4":
         return _run_rk4(setup, controller.params(), meta, on_divergence)
     return _run_adaptive(setup, controller.params(), meta, on_divergence, rtol, atol, integrator)
@@ -287,7 +306,7 @@ def _run_rk4(setup, cparams, meta, on_divergence):
     start = time.perf_counter()
     status, rows, step, joint = _rk4(setup, cparams, fset, iset, out)
     meta = {**(meta or {}), "wall_time": time.perf_counter() - start}
-    result = setup.result(out, rows, "rk4", meta)
+    result = setup.result(setup.views(out), rows, "rk4", meta)
     return _finish(setup, result, status, step, joint, on_divergence)
 
 
@@ -348,16 +367,18 @@ def _run_adaptive(setup, cparams, meta, on_divergence, rtol, atol, integrator):
         if status != 0:
             break
         x = xs[-1].copy()
-    thinned = np.ascontiguousarray(out[0:rows:setup.log_every])
+    thinned = {name: np.ascontiguousarray(view[0:rows:setup.log_every])
+               for name, view in setup.views(out).items()}
     meta = {**(meta or {}), "wall_time": time.perf_counter() - start, "integrator": integrator,
             "rtol": rtol, "atol": atol}
-    result = setup.result(thinned, thinned.shape[0], "adaptive", meta)
+    result = setup.result(thinned, thinned["t"].shape[0], "adaptive", meta)
     return _finish(setup, result, status, step, joint, on_divergence)
 
 
 def simulate_batch(plant, controllers, *, q0, qd0=None, t_final, dt, torque_limit=None,
                    disturbance=None, environment=None, log_every=1, limit_margin=0.5,
-                   max_kinetic_energy=1e6, workers=None, meta=None) -> list[SimulationResult]:
+                   max_kinetic_energy=1e6, workers=None, dynamics="auto",
+                   meta=None) -> list[SimulationResult]:
     """RK4 runs of many controllers (a gain sweep) in parallel on all cores.
 
     The compiled loop releases the GIL (``nogil``), so a thread pool of ``workers`` threads
@@ -371,13 +392,14 @@ def simulate_batch(plant, controllers, *, q0, qd0=None, t_final, dt, torque_limi
     if not controllers:
         raise SimulationError("controllers: empty")
     setups = [_Setup(plant, c, q0, qd0, t_final, dt, None, torque_limit, disturbance, environment,
-                     log_every, limit_margin, max_kinetic_energy) for c in controllers]
+                     log_every, limit_margin, max_kinetic_energy, dynamics) for c in controllers]
 
     def one(setup):
         fset, iset = setup.settings()
         out = setup.outputs()
         status, rows, step, joint = _rk4(setup, setup.controller.params(), fset, iset, out)
-        return _finish(setup, setup.result(out, rows, "rk4", meta), status, step, joint, "return")
+        return _finish(setup, setup.result(setup.views(out), rows, "rk4", meta), status, step, joint,
+                       "return")
 
     with ThreadPoolExecutor(max_workers=workers or os.cpu_count()) as pool:
         return list(pool.map(one, setups))

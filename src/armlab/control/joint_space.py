@@ -10,10 +10,13 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from numba import njit
+from numba import njit, types
 
+from armlab.closed_form import DYNAMICS_CHOICES, inverse_dynamics_kernel
 from armlab.control.base import Controller, ProtocolError, Signal
-from armlab.kernels.dynamics import gravity_into, make_workspace, rnea_into
+from armlab.kernels.dynamics import gravity_into, make_workspace
+from armlab.kernels.indirect import call_none, kernel_address
+from armlab.kernels.plant import pack_plant
 from armlab.model.robot import Robot
 from armlab.references import JointReference, reference_into
 
@@ -51,6 +54,7 @@ def _check_reference(reference, n, field="reference"):
 # increment and decrement for every array taken out of ``params``), and they are inlined into
 # the loop that calls them (no call boundary passing the robot's arrays by value).
 law_kernel = njit(cache=True, _nrt=False, inline="always")
+_VEC = types.float64[::1]
 
 
 @law_kernel
@@ -121,7 +125,7 @@ class JointPDGravity(Controller):
 @law_kernel
 def joint_inverse_dynamics_law(t, q, qd, z, h_e, params, tau_out, zdot_out, signals_out):
     """(C2): τ = B̂(q) y + n̂(q, q̇), y = q̈_des + K_D (q̇_des − q̇) + K_P (q_des − q)."""
-    m, ws, ref, kp, kd, q_des, qd_des, qdd_des, y, zero6 = params
+    inverse_dynamics, model, ref, kp, kd, q_des, qd_des, qdd_des, y = params
     n = q.shape[0]
     reference_into(ref, t, q_des, qd_des, qdd_des)
     for i in range(n):
@@ -129,8 +133,9 @@ def joint_inverse_dynamics_law(t, q, qd, z, h_e, params, tau_out, zdot_out, sign
         for j in range(n):
             acc += kd[i, j] * (qd_des[j] - qd[j]) + kp[i, j] * (q_des[j] - q[j])
         y[i] = acc
-    # B̂ y + n̂ is exactly the model's inverse dynamics at q̈ = y: one RNEA, no B.
-    rnea_into(m, ws, q, qd, y, 1.0, zero6, tau_out)
+    # B̂ y + n̂ is exactly the model's inverse dynamics at q̈ = y (no B): the model's closed
+    # form or its RNEA, whichever ``dynamics`` chose (armlab.closed_form).
+    call_none(inverse_dynamics, (model, q, qd, y, tau_out))
     for i in range(n):
         signals_out[i] = q_des[i]
         signals_out[n + i] = q_des[i] - q[i]
@@ -155,6 +160,9 @@ class JointInverseDynamics(Controller):
     B̂⁻¹[(B − B̂)q̈ + n − n̂] drives q̃ off zero: a steady-state error where gravity is
     mis-compensated.  h_e is not compensated (free-space control).
 
+    B̂ y + n̂ is evaluated as the model's inverse dynamics at q̈ = y, by its closed form or its
+    RNEA as ``dynamics`` says ("auto", "closed_form" or "numeric", see ``armlab.closed_form``).
+
     Signals: ``q_des``, ``q_err``, ``qd_err``, ``y`` (the outer-loop acceleration).
     """
 
@@ -162,6 +170,7 @@ class JointInverseDynamics(Controller):
     reference: JointReference
     kp: np.ndarray
     kd: np.ndarray
+    dynamics: str = "auto"
     law = joint_inverse_dynamics_law
 
     def __post_init__(self):
@@ -169,6 +178,8 @@ class JointInverseDynamics(Controller):
         _check_reference(self.reference, n)
         object.__setattr__(self, "kp", gain_matrix(self.kp, n, "kp"))
         object.__setattr__(self, "kd", gain_matrix(self.kd, n, "kd"))
+        if self.dynamics not in DYNAMICS_CHOICES:
+            raise ProtocolError(f"dynamics: {self.dynamics!r} is not one of {', '.join(DYNAMICS_CHOICES)}")
 
     @classmethod
     def from_poles(cls, model: Robot, reference: JointReference, omega_n, zeta=1.0):
@@ -180,8 +191,10 @@ class JointInverseDynamics(Controller):
 
     def params(self):
         n = self.n
-        return (self.model.arrays, make_workspace(n), np.array(self.reference.data), self.kp, self.kd,
-                np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(6))
+        kernel = inverse_dynamics_kernel(self.model, self.dynamics, "dynamics")
+        return (kernel_address(kernel, (_VEC,) * 5), pack_plant(self.model.arrays),
+                np.array(self.reference.data), self.kp, self.kd, np.zeros(n), np.zeros(n),
+                np.zeros(n), np.zeros(n))
 
     def signals(self):
         return (Signal.joint("q_des", self.model, "position"), Signal.joint("q_err", self.model, "error"),

@@ -25,8 +25,9 @@ holds the addresses, in this order (``FN_*``):
     measure(pp, q, qd, work, R_0e, p_0e, v_e)
     disturbance(dist, t, q, qd, tau_d_out)               (``armlab.disturbances``)
 
-The scratch memory is one flat array ``work`` (:func:`work_size`) and the log one 2-D array
-``out`` whose columns are :func:`log_columns`.
+The scratch memory is one flat array ``work`` (:func:`work_size`) and the log one flat array
+``out`` of R rows: the logged quantities (:func:`log_columns`) lie one after the other, each a
+C-ordered (R, width) block, so that Python takes every one as a view (no copy).
 
 State x = [q (n); q̇ (n); z (k)].  One right-hand-side evaluation (``stage``):
 
@@ -91,7 +92,9 @@ def zdot_slice(n: int, k: int) -> slice:
 
 
 def log_columns(n: int, k: int, s: int) -> dict:
-    """Column slices of the log ``out``: t, q, qd, qdd, tau, z, sig, tau_cmd, tau_dist, h_e."""
+    """Column ranges of the logged quantities, in order: t, q, qd, qdd, tau, z, sig, tau_cmd,
+    tau_dist, h_e.  In the flat log of R rows, quantity c is the (R, width) block starting at
+    R · c.start (:func:`log_views`)."""
     widths = (("t", 1), ("q", n), ("qd", n), ("qdd", n), ("tau", n), ("z", k), ("sig", s),
               ("tau_cmd", n), ("tau_dist", n), ("h_e", 6))
     columns, start = {}, 0
@@ -99,6 +102,14 @@ def log_columns(n: int, k: int, s: int) -> dict:
         columns[name] = slice(start, start + width)
         start += width
     return columns
+
+
+def log_views(out: np.ndarray, n: int, k: int, s: int) -> dict:
+    """The (R, width) views of every logged quantity in the flat log ``out``."""
+    columns = log_columns(n, k, s)
+    rows = out.shape[0] // columns["h_e"].stop
+    return {name: out[rows * c.start:rows * c.stop].reshape(rows, c.stop - c.start)
+            for name, c in columns.items()}
 
 
 _VEC = types.float64[::1]
@@ -236,24 +247,30 @@ def check_state(fn, pp, x, n, q_lo, q_hi, ke_max, check_energy, q, qd):
 
 @njit(cache=True, _nrt=False, inline="always")
 def log_row(row, t, x, n, sc, out):
-    """Row ``row`` of ``out`` (columns of :func:`log_columns`) from x and stage k₁."""
+    """Row ``row`` of the flat log ``out`` (blocks of :func:`log_columns`) from x and stage k₁."""
     tau_c, tau_a, tau_d, h_e, sig, qdd = sc[3], sc[4], sc[5], sc[7], sc[9], sc[13]
     k = sc[2].shape[0]
     s = sig.shape[0]
-    out[row, 0] = t
+    R = out.shape[0] // (7 + 6 * n + k + s)
+    out[row] = t
+    q_at, qd_at = R + row * n, R * (1 + n) + row * n
+    qdd_at, tau_at = R * (1 + 2 * n) + row * n, R * (1 + 3 * n) + row * n
+    z_at, sig_at = R * (1 + 4 * n) + row * k, R * (1 + 4 * n + k) + row * s
+    cmd_at, dist_at = R * (1 + 4 * n + k + s) + row * n, R * (1 + 5 * n + k + s) + row * n
+    he_at = R * (1 + 6 * n + k + s) + row * 6
     for i in range(n):
-        out[row, 1 + i] = x[i]
-        out[row, 1 + n + i] = x[n + i]
-        out[row, 1 + 2 * n + i] = qdd[i]
-        out[row, 1 + 3 * n + i] = tau_a[i]
-        out[row, 1 + 4 * n + k + s + i] = tau_c[i]
-        out[row, 1 + 5 * n + k + s + i] = tau_d[i]
+        out[q_at + i] = x[i]
+        out[qd_at + i] = x[n + i]
+        out[qdd_at + i] = qdd[i]
+        out[tau_at + i] = tau_a[i]
+        out[cmd_at + i] = tau_c[i]
+        out[dist_at + i] = tau_d[i]
     for i in range(k):
-        out[row, 1 + 4 * n + i] = x[2 * n + i]
+        out[z_at + i] = x[2 * n + i]
     for i in range(s):
-        out[row, 1 + 4 * n + k + i] = sig[i]
+        out[sig_at + i] = sig[i]
     for i in range(6):
-        out[row, 1 + 6 * n + k + s + i] = h_e[i]
+        out[he_at + i] = h_e[i]
 
 
 @loop_kernel
@@ -344,11 +361,11 @@ def log_core(fn, ts, xs, pp, cp, ep, dist, has_env, call_law, lim, work, sig_wid
 
 _CORE_TYPES = {
     "rk4": (_IVEC, _VEC, _I64, _I64, _VEC, _VEC, _VEC, _VEC,
-            _IVEC, _VEC, _VEC, _VEC, _MAT),
+            _IVEC, _VEC, _VEC, _VEC, _VEC),
     "rhs": (_IVEC, _F64, _VEC, _VEC, _I64, _I64, _VEC, types.boolean,
             types.boolean, _F64, _VEC, _VEC, _I64, _VEC),
     "log": (_IVEC, _VEC, _MAT, _VEC, _I64, _I64, _VEC, types.boolean,
-            types.boolean, _VEC, _VEC, _I64, _MAT, _I64),
+            types.boolean, _VEC, _VEC, _I64, _VEC, _I64),
 }
 _CORES = {"rk4": rk4_core, "rhs": rhs_core, "log": log_core}
 

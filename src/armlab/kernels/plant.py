@@ -11,6 +11,7 @@ inside compiled code (no copy, no allocation):
 
 Kernels over a packed robot (all arrays float64, C-contiguous; (n,) unless stated):
 
+    inverse_dynamics_packed(packed, q, qd, qdd, tau_out)   τ of (D1) with gravity, h_e = 0
     forward_dynamics_packed(packed, q, qd, tau, h_e, qdd_out) -> 0 | 1 wrong length | 2 B not PD
     kinetic_energy_packed(packed, q, qd) -> T [J] (NaN for a wrong length)
     measure_packed(packed, q, qd, work, R_0e, p_0e, v_e)   pose (3, 3), (3,) and twist (6,) of Σ_e
@@ -27,6 +28,7 @@ from numba import njit
 from armlab.kernels.dynamics import (
     forward_dynamics_into,
     kernel,
+    rnea_into,
     workspace_from_buffer,
     workspace_size,
 )
@@ -56,6 +58,14 @@ def unpack_plant(packed):
     start = HEAD + n + size
     m = unpack_robot(joint_type, buffer_view(packed, start, packed.shape[0] - start, np.float64))
     return n, m, ws, buffer_view(packed, 1 + n, 6, np.float64)
+
+
+@kernel
+def inverse_dynamics_packed(packed, q, qd, qdd, tau_out):
+    """τ = B q̈ + C q̇ + F_v q̇ + F_s sgn q̇ + g (D1, h_e = 0) by the RNEA; lengths unchecked
+    (compiled callers pass n-vectors)."""
+    n, m, ws, zero_wrench = unpack_plant(packed)
+    rnea_into(m, ws, q, qd, qdd, 1.0, zero_wrench, tau_out)
 
 
 @kernel

@@ -258,7 +258,10 @@ class Robot:
         return all(j.dh is not None for j in self.joints)
 
     def replace(self, **changes) -> Robot:
-        """A copy with fields changed (the robot itself is never mutated)."""
+        """A copy with fields changed (the robot itself is never mutated).  The copy drops the
+        robot file's expressions (``spec``) unless ``spec`` is among the changes: they would
+        no longer describe it, and ``armlab.symbolic`` rebuilds it from its numbers instead."""
+        changes.setdefault("spec", {})
         return replace(self, **changes)
 
     def with_link_mass(self, link: int | str, mass: float, *, scale_inertia: bool = True) -> Robot:
@@ -280,7 +283,7 @@ class Robot:
         new_inertial = replace(old, mass=mass, inertia=old.inertia * factor)
         links = list(self.links)
         links[index] = replace(links[index], inertial=new_inertial)
-        return replace(self, links=tuple(links))
+        return self.replace(links=tuple(links))
 
     @cached_property
     def arrays(self) -> RobotArrays:

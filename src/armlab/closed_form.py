@@ -1,0 +1,196 @@
+"""Robot-specialised dynamics: a robot's closed form, generated once, compiled and cached.
+
+A general recursive algorithm pays for its generality at every call: it loops over joints,
+multiplies by zeros and ones of the joint geometry and reads the robot's numbers from memory.
+For a small robot the closed form — B(q), C(q, q̇) q̇ + g(q) and J(q) written out with the
+robot's numbers, as ``armlab.symbolic`` derives them (A2–A3) — is several times faster.  This
+module makes it available to compiled code with the signatures of the packed-robot kernels of
+``armlab.kernels.plant``:
+
+    inverse_dynamics(packed, q, qd, qdd, tau_out)                  τ of (D1), h_e = 0
+    forward_dynamics(packed, q, qd, tau, h_e, qdd_out) -> status    q̈ of (D1), (D5)
+
+The generated module (``armlab.symbolic.module_source``) is written to the cache directory
+(``ARMLAB_CACHE_DIR``, default ``$XDG_CACHE_HOME/armlab`` or ``~/.cache/armlab``) under a key
+made of the robot's numbers and the generator's source, and numba caches its compile beside
+it: the derivation (seconds for a 3-joint arm) and the compile happen once per robot and
+machine.  Every module is checked against the numeric kernels at random states before it is
+used (relative agreement 1e-9); one that disagrees, or a robot whose symbolic model cannot be
+built, falls back to the numeric kernels with the reason in :func:`closed_form_status`.
+
+The choice, ``dynamics=``:
+
+* ``"numeric"`` — the general compiled RNEA/CRBA kernels (any robot);
+* ``"closed_form"`` — the closed form, or an error saying why it is not available;
+* ``"auto"`` (default) — the closed form for robots of up to ``AUTO_MAX_JOINTS`` joints (the
+  symbolic derivation grows quickly with n), else numeric.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import importlib.util
+import os
+import sys
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from armlab.dynamics import SingularInertiaError, forward_dynamics, inverse_dynamics
+from armlab.errors import ArmlabError
+from armlab.kernels.plant import forward_dynamics_packed, inverse_dynamics_packed, pack_plant
+from armlab.model.robot import Robot
+
+AUTO_MAX_JOINTS = 3
+DYNAMICS_CHOICES = ("auto", "closed_form", "numeric")
+_KEY = "_closed_form_module"
+_MODULES: dict = {}
+
+
+class ClosedFormUnavailable(ArmlabError):
+    """The closed form of a robot cannot be used (says why)."""
+
+
+def cache_dir() -> Path:
+    """Where generated modules (and their numba caches) live."""
+    root = os.environ.get("ARMLAB_CACHE_DIR")
+    if root:
+        return Path(root)
+    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+    return Path(base) / "armlab"
+
+
+def _key(robot: Robot) -> str:
+    """Hash of everything the generated code depends on: the robot's numbers and the source
+    of the generator and of the symbolic model."""
+    digest = hashlib.sha256()
+    for name, value in zip(robot.arrays._fields, robot.arrays, strict=True):
+        digest.update(name.encode())
+        digest.update(np.ascontiguousarray(value).tobytes())
+    digest.update(repr(robot.spec).encode() if getattr(robot, "spec", None) is not None else b"")
+    from armlab import symbolic
+
+    for path in sorted(Path(symbolic.__file__).parent.glob("*.py")):
+        digest.update(path.read_bytes())
+    return digest.hexdigest()[:20]
+
+
+def _writable_folder() -> Path:
+    folder = cache_dir() / "closed_form"
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        (folder / ".write-test").touch()
+    except OSError:
+        folder = Path(tempfile.gettempdir()) / "armlab-closed-form"
+        folder.mkdir(parents=True, exist_ok=True)
+    return folder
+
+
+def _generate(robot: Robot, key: str, path: Path) -> None:
+    from armlab.symbolic.model import symbolic_robot
+    from armlab.symbolic.module_source import closed_form_source
+
+    source = closed_form_source(symbolic_robot(robot, numeric=True), key=key, name=robot.name)
+    # Written atomically: parallel processes may generate the same module.
+    handle, temporary = tempfile.mkstemp(dir=path.parent, suffix=".tmp")
+    with os.fdopen(handle, "w") as stream:
+        stream.write(source)
+    os.replace(temporary, path)
+
+
+def _import(path: Path, name: str):
+    spec = importlib.util.spec_from_file_location(name, path)
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[name] = module
+    spec.loader.exec_module(module)
+    return module
+
+
+def _verify(robot: Robot, module) -> str:
+    """'' if the module's dynamics equal the numeric kernels at random states, else why not."""
+    n = robot.n
+    rng = np.random.default_rng(20261122)
+    packed = pack_plant(robot.arrays)  # ignored by the generated code
+    lo = np.where(np.isfinite(robot.arrays.q_min), robot.arrays.q_min, -np.pi)
+    hi = np.where(np.isfinite(robot.arrays.q_max), robot.arrays.q_max, np.pi)
+    for _ in range(3):
+        q = rng.uniform(lo, hi)
+        qd, qdd, tau = rng.normal(size=(3, n))
+        h_e = rng.normal(size=6)
+        got = np.zeros(n)
+        expected = inverse_dynamics(robot, q, qd, qdd)
+        module.inverse_dynamics(packed, q, qd, qdd, got)
+        if not np.allclose(got, expected, rtol=1e-9, atol=1e-9 * max(1.0, np.abs(expected).max())):
+            return f"inverse dynamics differ from the numeric kernels at q = {q.tolist()}"
+        try:
+            expected = forward_dynamics(robot, q, qd, tau, h_e=h_e)
+        except SingularInertiaError:
+            continue
+        if module.forward_dynamics(packed, q, qd, tau, h_e, got) == 0:
+            if not np.allclose(got, expected, rtol=1e-8, atol=1e-8 * max(1.0, np.abs(expected).max())):
+                return f"forward dynamics differ from the numeric kernels at q = {q.tolist()}"
+    return ""
+
+
+def closed_form_module(robot: Robot):
+    """The verified, compiled closed-form module of ``robot`` (generated on first use), or
+    :class:`ClosedFormUnavailable` with the reason.  The robot remembers the outcome (its key
+    or the reason, plain strings, so that it stays picklable)."""
+    known = robot.__dict__.get(_KEY)
+    if known is not None:
+        ok, text = known
+        if not ok:
+            raise ClosedFormUnavailable(text)
+        return _MODULES[text]
+    key = _key(robot)
+    name = f"armlab_closed_form_{key}"
+    reason = ""
+    module = _MODULES.get(key)
+    if module is None:
+        try:
+            path = _writable_folder() / f"{name}.py"
+            if not path.exists():
+                _generate(robot, key, path)
+            module = _import(path, name)
+            reason = _verify(robot, module)
+        except Exception as error:  # the symbolic model may not cover a robot: say so, fall back
+            reason = f"no closed form for robot {robot.name!r}: {type(error).__name__}: {error}"
+    if reason:
+        robot.__dict__[_KEY] = (False, reason)
+        raise ClosedFormUnavailable(reason)
+    _MODULES[key] = module
+    robot.__dict__[_KEY] = (True, key)
+    return module
+
+
+def closed_form_status(robot: Robot) -> str:
+    """Why ``robot`` has no usable closed form ('' if it has one or was never asked)."""
+    known = robot.__dict__.get(_KEY)
+    return known[1] if known is not None and not known[0] else ""
+
+
+def _choose(robot: Robot, dynamics: str, field: str):
+    if dynamics not in DYNAMICS_CHOICES:
+        raise ClosedFormUnavailable(f"{field}: {dynamics!r} is not one of {', '.join(DYNAMICS_CHOICES)}")
+    if dynamics == "numeric" or (dynamics == "auto" and robot.n > AUTO_MAX_JOINTS):
+        return None
+    try:
+        return closed_form_module(robot)
+    except ClosedFormUnavailable:
+        if dynamics == "closed_form":
+            raise
+        return None
+
+
+def forward_dynamics_kernel(robot: Robot, dynamics: str = "auto", field: str = "dynamics"):
+    """A compiled ``forward_dynamics(packed, q, qd, tau, h_e, qdd_out) -> status`` for ``robot``."""
+    module = _choose(robot, dynamics, field)
+    return forward_dynamics_packed if module is None else module.forward_dynamics
+
+
+def inverse_dynamics_kernel(robot: Robot, dynamics: str = "auto", field: str = "dynamics"):
+    """A compiled ``inverse_dynamics(packed, q, qd, qdd, tau_out)`` for ``robot``."""
+    module = _choose(robot, dynamics, field)
+    return inverse_dynamics_packed if module is None else module.inverse_dynamics
+

@@ -1,0 +1,113 @@
+"""Robot-specialised closed-form dynamics (armlab.closed_form) against the numeric kernels, and
+its use by the simulator and the computed-torque controller."""
+
+import pickle
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+import armlab
+from armlab.closed_form import ClosedFormUnavailable, closed_form_module, closed_form_status
+from armlab.control.base import ProtocolError
+from armlab.kernels.plant import pack_plant
+from armlab.scenarios import load_scenario
+from armlab.simulation import SimulationError, simulate
+from armlab.symbolic.energy import inertia_matrix
+from armlab.symbolic.model import symbolic_robot
+
+SMALL = ["prp", "prp_actuated", "planar2r", "link1"]
+
+
+def robots():
+    for name in SMALL:
+        yield armlab.load_robot(name)
+    yield armlab.load_robot("prp").with_link_mass("link4", 0.16)
+
+
+@pytest.mark.parametrize("robot", list(robots()), ids=lambda r: f"{r.name}-{r.links[-1].inertial.mass:g}")
+def test_closed_form_equals_the_numeric_kernels(robot):
+    module = closed_form_module(robot)
+    packed = pack_plant(robot.arrays)
+    rng = np.random.default_rng(7)
+    n = robot.n
+    for _ in range(25):
+        q = rng.uniform(-1.0, 1.0, n)
+        qd, qdd, tau = rng.normal(scale=2.0, size=(3, n))
+        h_e = rng.normal(size=6) * rng.integers(0, 2)        # half the states without a wrench
+        tau_cf, qdd_cf = np.zeros(n), np.zeros(n)
+        module.inverse_dynamics(packed, q, qd, qdd, tau_cf)
+        expected = armlab.inverse_dynamics(robot, q, qd, qdd)
+        np.testing.assert_allclose(tau_cf, expected, rtol=1e-10, atol=1e-10 * np.abs(expected).max())
+        assert module.forward_dynamics(packed, q, qd, tau, h_e, qdd_cf) == 0
+        expected = armlab.forward_dynamics(robot, q, qd, tau, h_e=h_e)
+        np.testing.assert_allclose(qdd_cf, expected, rtol=1e-9, atol=1e-9 * np.abs(expected).max())
+
+
+def test_a_changed_robot_is_derived_from_its_numbers_not_its_file():
+    # with_link_mass keeps the file's expressions out of the symbolic model: B follows the mass.
+    light = armlab.load_robot("prp").with_link_mass("link4", 0.16)
+    sr = symbolic_robot(light, numeric=True)
+    q = np.array([0.1, 0.4, 0.3])
+    B = np.array(inertia_matrix(sr).subs(dict(zip(sr.q, q, strict=True))), dtype=float)
+    np.testing.assert_allclose(B, armlab.inertia_matrix(light, q), rtol=1e-12, atol=1e-14)
+
+
+def test_simulations_through_the_closed_form_match_the_numeric_ones():
+    scenario = load_scenario("a7_id_mismatch")
+    runs = {}
+    for dynamics in ("numeric", "closed_form"):
+        controller = replace(scenario.controller, dynamics=dynamics)
+        runs[dynamics] = simulate(scenario.plant, controller, q0=np.zeros(3), t_final=3.0, dt=1e-3,
+                                  dynamics=dynamics)
+        assert runs[dynamics].meta["dynamics"] == dynamics
+    np.testing.assert_allclose(runs["closed_form"].q, runs["numeric"].q, rtol=0, atol=1e-10)
+    np.testing.assert_allclose(runs["closed_form"].tau, runs["numeric"].tau, rtol=1e-9, atol=1e-9)
+
+
+def test_the_wrench_term_of_the_closed_form_in_a_contact_run():
+    # The PRP pushing on a wall: h_e ≠ 0 goes through the generated Jᵀ h_e.
+    scenario = load_scenario("a11_compliance")
+    runs = [scenario.run(t_final=1.0, dynamics=dynamics) for dynamics in ("numeric", "closed_form")]
+    assert [r.meta["dynamics"] for r in runs] == ["numeric", "closed_form"]
+    assert np.abs(runs[0].signals["h_e"]).max() > 0.1
+    np.testing.assert_allclose(runs[1].q, runs[0].q, rtol=0, atol=1e-9)
+
+
+def test_auto_uses_the_closed_form_for_small_robots_only():
+    prp, puma = armlab.load_robot("prp"), armlab.load_robot("puma560")
+    pd = armlab.control.joint_space.JointPDGravity
+    reference = armlab.references.Constant
+    small = simulate(prp, pd(prp, reference(np.zeros(3)), 10.0, 2.0), q0=np.zeros(3), t_final=0.01,
+                     dt=1e-3)
+    large = simulate(puma, pd(puma, reference(np.zeros(6)), 10.0, 2.0), q0=np.zeros(6), t_final=0.01,
+                     dt=1e-3)
+    assert small.meta["dynamics"] == "closed_form" and large.meta["dynamics"] == "numeric"
+
+
+def test_bad_choices_and_unavailable_closed_forms_are_named():
+    scenario = load_scenario("a7_id_via_points")
+    with pytest.raises(SimulationError, match="dynamics: 'fast'"):
+        simulate(scenario.plant, scenario.controller, q0=np.zeros(3), t_final=0.01, dt=1e-3,
+                 dynamics="fast")
+    with pytest.raises(ProtocolError, match="dynamics"):
+        replace(scenario.controller, dynamics="fast")
+    robot = armlab.load_robot("prp")
+    # A robot whose closed form disagrees with its kernels is refused, with the reason kept.
+    broken = robot.replace(links=robot.links)
+    broken.__dict__["_closed_form_module"] = (False, "inverse dynamics differ (test)")
+    with pytest.raises(ClosedFormUnavailable, match="differ"):
+        closed_form_module(broken)
+    assert closed_form_status(broken) == "inverse dynamics differ (test)"
+    with pytest.raises(SimulationError, match="dynamics: inverse dynamics differ"):
+        simulate(broken, scenario.controller, q0=np.zeros(3), t_final=0.01, dt=1e-3,
+                 dynamics="closed_form")
+    fallback = simulate(broken, scenario.controller, q0=np.zeros(3), t_final=0.01, dt=1e-3)
+    assert fallback.meta["dynamics"] == "numeric"
+
+
+def test_a_robot_with_a_closed_form_still_pickles():
+    robot = armlab.load_robot("prp")
+    closed_form_module(robot)
+    copy = pickle.loads(pickle.dumps(robot))
+    assert closed_form_module(copy) is closed_form_module(robot)
