@@ -9,6 +9,7 @@ module makes it available to compiled code with the signatures of the packed-rob
 
     inverse_dynamics(packed, q, qd, qdd, tau_out)                  τ of (D1), h_e = 0
     forward_dynamics(packed, q, qd, tau, h_e, qdd_out) -> status    q̈ of (D1), (D5)
+    kinetic_energy(packed, q, qd) -> T                              (D6)
 
 The generated module (``armlab.symbolic.module_source``) is written to the cache directory
 (``ARMLAB_CACHE_DIR``, default ``$XDG_CACHE_HOME/armlab`` or ``~/.cache/armlab``) under a key
@@ -37,9 +38,19 @@ from pathlib import Path
 
 import numpy as np
 
-from armlab.dynamics import SingularInertiaError, forward_dynamics, inverse_dynamics
+from armlab.dynamics import (
+    SingularInertiaError,
+    forward_dynamics,
+    inverse_dynamics,
+    kinetic_energy,
+)
 from armlab.errors import ArmlabError
-from armlab.kernels.plant import forward_dynamics_packed, inverse_dynamics_packed, pack_plant
+from armlab.kernels.plant import (
+    forward_dynamics_packed,
+    inverse_dynamics_packed,
+    kinetic_energy_packed,
+    pack_plant,
+)
 from armlab.model.robot import Robot
 
 AUTO_MAX_JOINTS = 3
@@ -130,6 +141,9 @@ def _verify(robot: Robot, module) -> str:
         if module.forward_dynamics(packed, q, qd, tau, h_e, got) == 0:
             if not np.allclose(got, expected, rtol=1e-8, atol=1e-8 * max(1.0, np.abs(expected).max())):
                 return f"forward dynamics differ from the numeric kernels at q = {q.tolist()}"
+        energy = kinetic_energy(robot, q, qd)
+        if not np.isclose(module.kinetic_energy(packed, q, qd), energy, rtol=1e-9, atol=1e-12):
+            return f"kinetic energy differs from the numeric kernels at q = {q.tolist()}"
     return ""
 
 
@@ -183,10 +197,14 @@ def _choose(robot: Robot, dynamics: str, field: str):
         return None
 
 
-def forward_dynamics_kernel(robot: Robot, dynamics: str = "auto", field: str = "dynamics"):
-    """A compiled ``forward_dynamics(packed, q, qd, tau, h_e, qdd_out) -> status`` for ``robot``."""
+def plant_kernels(robot: Robot, dynamics: str = "auto", field: str = "dynamics"):
+    """(kind, forward_dynamics, kinetic_energy) of ``robot`` for the simulation loop: kind is
+    "closed_form" or "numeric", the kernels have the signatures of
+    ``armlab.kernels.plant.forward_dynamics_packed`` and ``kinetic_energy_packed``."""
     module = _choose(robot, dynamics, field)
-    return forward_dynamics_packed if module is None else module.forward_dynamics
+    if module is None:
+        return "numeric", forward_dynamics_packed, kinetic_energy_packed
+    return "closed_form", module.forward_dynamics, module.kinetic_energy
 
 
 def inverse_dynamics_kernel(robot: Robot, dynamics: str = "auto", field: str = "dynamics"):

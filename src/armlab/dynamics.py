@@ -69,6 +69,12 @@ def _pack(robot: Robot):
     return cached
 
 
+def packed_copy(robot: Robot) -> np.ndarray:
+    """A private copy of ``robot``'s packed array (``armlab.kernels.plant``), for compiled code
+    that uses its workspace, e.g. one simulation of a parallel sweep."""
+    return _pack(robot)[0].copy()
+
+
 _unpack = unpack_plant
 
 

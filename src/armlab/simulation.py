@@ -40,13 +40,13 @@ import time
 
 import numpy as np
 
-from armlab.closed_form import DYNAMICS_CHOICES, ClosedFormUnavailable, forward_dynamics_kernel
+from armlab.closed_form import DYNAMICS_CHOICES, ClosedFormUnavailable, plant_kernels
 from armlab.control.base import Controller, Environment, ProtocolError, Signal
 from armlab.disturbances import encode_disturbances
+from armlab.dynamics import packed_copy
 from armlab.errors import ArmlabError
 from armlab.kernels import integrators
 from armlab.kernels.integrators import no_environment_law
-from armlab.kernels.plant import forward_dynamics_packed, pack_plant
 from armlab.results import SimulationResult
 
 STATUS = {1: "non-finite state", 2: "joint limit exceeded", 3: "runaway kinetic energy",
@@ -137,9 +137,7 @@ class _Setup:
         if dynamics not in DYNAMICS_CHOICES:
             raise SimulationError(f"dynamics: {dynamics!r} is not one of {', '.join(DYNAMICS_CHOICES)}")
         try:
-            self.forward_dynamics = forward_dynamics_kernel(plant, dynamics)
-            self.dynamics = ("numeric" if self.forward_dynamics is forward_dynamics_packed
-                             else "closed_form")
+            self.dynamics, self.forward_dynamics, self.kinetic_energy = plant_kernels(plant, dynamics)
         except ClosedFormUnavailable as error:
             raise SimulationError(f"dynamics: {error}") from None
         self.law = _compiled(type(controller).law, f"{type(controller).__name__}.law")
@@ -150,9 +148,9 @@ class _Setup:
         """(fn, pp, work) of one run: the loop's addresses, the packed plant (its own copy:
         it holds scratch) and the loop's scratch memory."""
         fn = integrators.addresses(self.law, self.env_law, cparams, self.eparams,
-                                   self.forward_dynamics)
+                                   self.forward_dynamics, self.kinetic_energy)
         work = np.zeros(integrators.work_size(self.n, self.k, self.sig_width))
-        return fn, pack_plant(self.plant.arrays), work
+        return fn, packed_copy(self.plant), work
 
     def outputs(self, rows=None):
         """The flat log of ``rows`` rows (``integrators.log_views`` gives its blocks).  Every

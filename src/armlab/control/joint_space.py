@@ -14,9 +14,9 @@ from numba import njit, types
 
 from armlab.closed_form import DYNAMICS_CHOICES, inverse_dynamics_kernel
 from armlab.control.base import Controller, ProtocolError, Signal
+from armlab.dynamics import packed_copy
 from armlab.kernels.dynamics import gravity_into, make_workspace
 from armlab.kernels.indirect import call_none, kernel_address
-from armlab.kernels.plant import pack_plant
 from armlab.model.robot import Robot
 from armlab.references import JointReference, reference_into
 
@@ -192,7 +192,7 @@ class JointInverseDynamics(Controller):
     def params(self):
         n = self.n
         kernel = inverse_dynamics_kernel(self.model, self.dynamics, "dynamics")
-        return (kernel_address(kernel, (_VEC,) * 5), pack_plant(self.model.arrays),
+        return (kernel_address(kernel, (_VEC,) * 5), packed_copy(self.model),
                 np.array(self.reference.data), self.kp, self.kd, np.zeros(n), np.zeros(n),
                 np.zeros(n), np.zeros(n))
 

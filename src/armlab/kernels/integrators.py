@@ -131,21 +131,45 @@ def env_trampoline(ep, env, t, R_0e, p_0e, v_e, h_e_out):
     call_none(env, (t, R_0e, p_0e, v_e, ep[0], h_e_out))
 
 
-def addresses(law, env_law, cparams, eparams, forward_dynamics=None):
-    """The ``fn`` array for a loop with these parameters (compiles what is missing).
+def _type_key(value):
+    """A cheap stand-in for ``numba.typeof(value)`` of a parameter tuple (which costs ~0.1 ms):
+    equal keys mean equal numba types for the arrays, numbers and (named) tuples of params."""
+    if isinstance(value, np.ndarray):
+        return (value.dtype.str, value.ndim, value.flags.c_contiguous, value.flags.f_contiguous,
+                value.flags.writeable)
+    if isinstance(value, tuple):
+        return (type(value), tuple(_type_key(v) for v in value))
+    return type(value)
 
-    The argument types are those ``stage`` passes; ``forward_dynamics`` defaults to the
-    general :func:`~armlab.kernels.plant.forward_dynamics_packed`."""
+
+_FN: dict = {}
+
+
+def addresses(law, env_law, cparams, eparams, forward_dynamics=None, kinetic_energy=None):
+    """The ``fn`` array for a loop with these parameters (compiles what is missing; remembered
+    per law, environment, plant kernels and parameter types).
+
+    The argument types are those ``stage`` passes; ``forward_dynamics`` and ``kinetic_energy``
+    default to the general kernels of ``armlab.kernels.plant``."""
+    key = (law, env_law, forward_dynamics, kinetic_energy, _type_key(cparams), _type_key(eparams))
+    fn = _FN.get(key)
+    if fn is None:
+        fn = _FN[key] = _addresses(law, env_law, cparams, eparams, forward_dynamics, kinetic_energy)
+    return fn
+
+
+def _addresses(law, env_law, cparams, eparams, forward_dynamics, kinetic_energy):
     vec, mat, f64 = _VEC, _MAT, _F64
     ctype, etype = typeof(cparams), typeof(eparams)
     fd = forward_dynamics_packed if forward_dynamics is None else forward_dynamics
+    ke = kinetic_energy_packed if kinetic_energy is None else kinetic_energy
     return np.array([
         kernel_address(law_trampoline, (types.CPointer(ctype), _I64, f64) + (vec,) * 7),
         kernel_address(law, (f64, vec, vec, vec, vec, ctype, vec, vec, vec)),
         kernel_address(env_trampoline, (types.CPointer(etype), _I64, f64, mat, vec, vec, vec)),
         kernel_address(env_law, (f64, mat, vec, vec, etype, vec)),
         kernel_address(fd, (vec,) * 6),
-        kernel_address(kinetic_energy_packed, (vec,) * 3),
+        kernel_address(ke, (vec,) * 3),
         kernel_address(measure_packed, (vec, vec, vec, vec, mat, vec, vec)),
         kernel_address(disturbance_into, (vec, f64, vec, vec, vec)),
     ], dtype=np.int64)
@@ -215,7 +239,11 @@ def stage(fn, t, x, n, pp, cp, ep, dist, has_env, call_law, z_rate, lim, sc, xdo
         elif value < -lim[i]:
             value = -lim[i]
         tau_a[i] = value
-    call_none(fn[FN_DISTURBANCE], (dist, t, q, qd, tau_d))
+    if dist[0] > 0.0:
+        call_none(fn[FN_DISTURBANCE], (dist, t, q, qd, tau_d))
+    else:
+        for i in range(n):
+            tau_d[i] = 0.0
     for i in range(n):
         tau_p[i] = tau_a[i] + tau_d[i]
     status = call_int(fn[FN_FORWARD_DYNAMICS], (pp, q, qd, tau_p, h_e, qdd))

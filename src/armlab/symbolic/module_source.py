@@ -8,6 +8,7 @@ disk like any other kernel; the functions have the signatures of the packed-robo
         τ = B(q) q̈ + C(q, q̇) q̇ + g(q) + F_v q̇ + F_s sgn q̇                          (D1, h_e = 0)
     forward_dynamics(packed, q, qd, tau, h_e, qdd_out) -> 0 | 2 (B not positive definite)
         B(q) q̈ = τ − C q̇ − g − F_v q̇ − F_s sgn q̇ − Jᵀ(q) h_e                          (D1, D5)
+    kinetic_energy(packed, q, qd) -> T = ½ q̇ᵀ B(q) q̇                                    (D6)
 
 B, C q̇ + g and J come from the Lagrange derivation of ``armlab.symbolic`` (A2–A3) with the
 robot's numbers substituted; SymPy's common-subexpression elimination and code printer write
@@ -164,4 +165,9 @@ def closed_form_source(sr: SymbolicRobot, *, key: str, name: str) -> str:
                *[f"    r{i} = {rhs[i]}" for i in range(n)], *wrench,
                *_ldl_solve(n, lambda i, j: zero[(i, j)], [f"r{i}" for i in range(n)]),
                *[f"    qdd_out[{i}] = x{i}" for i in range(n)], "    return 0"]
-    return HEADER.format(name=name, key=key) + "\n".join(inverse) + "\n\n\n" + "\n".join(forward) + "\n"
+    energy = sp.Rational(1, 2) * (sp.Matrix(qd).T * B * sp.Matrix(qd))[0, 0]
+    cse_lines, outputs = _statements([energy], "e", printer)
+    kinetic = ["@njit(cache=True, _nrt=False)", "def kinetic_energy(packed, q, qd):",
+               '    """T = ½ q̇ᵀ B q̇ (D6) [J]."""', *unpack, *cse_lines, f"    return {outputs[0]}"]
+    return (HEADER.format(name=name, key=key) + "\n".join(inverse) + "\n\n\n" + "\n".join(forward)
+            + "\n\n\n" + "\n".join(kinetic) + "\n")
