@@ -250,12 +250,19 @@ def _evaluate_scenario(name: str, t_final: float | None) -> Experiment:
 
 
 def _schedule(planned: list[Experiment]) -> list[Experiment]:
-    """Registry scenarios ordered so that the first run of every controller type comes first:
-    two workers then compile different control loops at the same time."""
-    seen, first, rest = set(), [], []
+    """Registry scenarios ordered so that the first run of every controller type comes first,
+    joint-space (A6–A8) and task-space (A9–A15) kinds alternating: two workers then compile
+    different code at the same time (the joint-space dynamics and loop in one, the task-space
+    kernels in the other) instead of the same kernels twice."""
+    seen, joint, task, rest = set(), [], [], []
     for exp in planned:
-        (rest if exp.kind in seen else first).append(exp)
+        if exp.kind in seen:
+            rest.append(exp)
+        else:
+            (joint if exp.assignment <= 8 else task).append(exp)
         seen.add(exp.kind)
+    first = [e for pair in zip(joint, task, strict=False) for e in pair]
+    first += joint[len(task):] + task[len(joint):]
     return first + rest
 
 
