@@ -96,3 +96,28 @@ def test_the_log_columns_cover_what_a_row_writes():
     assert widths == [1, 3, 3, 3, 3, 2, 5, 3, 3, 6]
     assert list(columns.values())[0].start == 0
     assert all(a.stop == b.start for a, b in zip(list(columns.values()), list(columns.values())[1:]))
+
+
+def test_a_law_that_is_not_compiled_is_refused_by_name():
+    from dataclasses import dataclass
+
+    from armlab.control.base import Controller, ProtocolError, Signal
+    from armlab.simulation import simulate
+
+    def plain_law(t, q, qd, z, h_e, params, tau_out, zdot_out, signals_out):
+        tau_out[:] = 0.0
+
+    @dataclass(frozen=True)
+    class Plain(Controller):
+        model: object
+        law = plain_law
+
+        def params(self):
+            return (np.zeros(1),)
+
+        def signals(self):
+            return (Signal.joint("none", self.model, "position"),)
+
+    robot = armlab.load_robot("prp")
+    with pytest.raises(ProtocolError, match="Plain.law: .* is not a numba.njit function"):
+        simulate(robot, Plain(robot), q0=np.zeros(3), t_final=0.01, dt=1e-3)

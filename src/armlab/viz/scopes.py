@@ -56,24 +56,31 @@ def pretty(label: str) -> str:
 
 
 def decimate(t: np.ndarray, y: np.ndarray, max_points: int = MAX_POINTS) -> tuple[np.ndarray, np.ndarray]:
-    """At most ``max_points`` samples of (t (N,), y (N,)), keeping each bucket's min and max."""
+    """At most ``max_points`` samples of (t (N,), y (N,)), keeping each bucket's min and max
+    (both ends of a bucket that holds a non-finite value).  Vectorised: a report draws over a
+    thousand traces."""
     n = t.size
     if n <= max_points:
         return t, y
     buckets = max_points // 2
     edges = np.linspace(0, n, buckets + 1).astype(int)
-    keep = []
-    for a, b in zip(edges[:-1], edges[1:], strict=True):
-        if b <= a:
-            continue
-        chunk = y[a:b]
-        if not np.all(np.isfinite(chunk)):
-            keep.extend((a, b - 1))
-            continue
-        lo, hi = a + int(np.argmin(chunk)), a + int(np.argmax(chunk))
-        keep.extend(sorted((lo, hi)))
-    index = np.unique(np.array(keep))
-    return t[index], y[index]
+    starts, stops = edges[:-1], edges[1:]
+    full = stops > starts
+    starts, stops = starts[full], stops[full]
+    sizes = stops - starts
+    index = np.arange(n)
+    finite = np.isfinite(y)
+    clean = np.where(finite, y, 0.0)
+    # First index of each bucket's min and max (what argmin/argmax give), all buckets at once.
+    lows = np.repeat(np.minimum.reduceat(clean, starts), sizes)
+    highs = np.repeat(np.maximum.reduceat(clean, starts), sizes)
+    i_min = np.minimum.reduceat(np.where(clean == lows, index, n), starts)
+    i_max = np.minimum.reduceat(np.where(clean == highs, index, n), starts)
+    broken = ~np.logical_and.reduceat(finite, starts)
+    i_min = np.where(broken, starts, i_min)
+    i_max = np.where(broken, stops - 1, i_max)
+    keep = np.unique(np.concatenate([i_min, i_max]))
+    return t[keep], y[keep]
 
 
 @dataclass
