@@ -88,3 +88,15 @@ def test_cli_lists_and_runs_scenarios(tmp_path, capsys):
     assert main(["run", str(bad), "--out", str(tmp_path)]) == 2
     error = capsys.readouterr().err
     assert "q0" in error and "Traceback" not in error
+
+
+def test_the_plant_dynamics_is_a_simulation_setting(tmp_path, capsys):
+    path = tmp_path / "numeric.toml"
+    path.write_text(GOOD.replace("dt = 0.001", 'dt = 0.001\ndynamics = "numeric"'))
+    assert load_scenario_file(path).run(t_final=0.01).meta["dynamics"] == "numeric"
+    bad = tmp_path / "fast.toml"
+    bad.write_text(GOOD.replace("dt = 0.001", 'dt = 0.001\ndynamics = "fast"'))
+    assert main(["run", str(bad), "--out", str(tmp_path), "--t-final", "0.01"]) == 2
+    error = capsys.readouterr().err.strip()
+    assert error.endswith("fast.toml: simulation.dynamics: 'fast' is not one of auto, closed_form, numeric")
+    assert "\n" not in error

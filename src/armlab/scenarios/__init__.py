@@ -12,7 +12,8 @@ A scenario file (bundled ones live next to this module; ``armlab scenarios`` lis
     t_final = 10.0                         # [s]
     dt = 0.001                             # [s]
     q0 = [0, 0, 0]
-    # qd0, method ("rk4" | "adaptive"), control_period, torque_limit, log_every
+    # qd0, method ("rk4" | "adaptive"), control_period, torque_limit, log_every,
+    # dynamics ("auto" | "closed_form" | "numeric": the plant's forward dynamics)
 
     [controller]
     type = "joint_pd_gravity"              # see CONTROLLERS
@@ -45,6 +46,7 @@ from pathlib import Path
 
 import numpy as np
 
+from armlab.closed_form import DYNAMICS_CHOICES
 from armlab.control.adaptive import SlotineLi, SlotineLi1DoF
 from armlab.control.joint_space import JointInverseDynamics, JointPDGravity
 from armlab.disturbances import DISTURBANCE_TYPES
@@ -56,7 +58,7 @@ from armlab.references import REFERENCE_TYPES
 CONTROLLERS = {"joint_pd_gravity": JointPDGravity, "joint_inverse_dynamics": JointInverseDynamics,
                "slotine_li_1dof": SlotineLi1DoF, "slotine_li": SlotineLi}
 SIMULATION_KEYS = {"t_final", "dt", "q0", "qd0", "method", "control_period", "torque_limit",
-                   "log_every", "limit_margin", "max_kinetic_energy", "rtol", "atol"}
+                   "log_every", "limit_margin", "max_kinetic_energy", "rtol", "atol", "dynamics"}
 TOP_KEYS = {"title", "assignment", "description", "plant", "plant_link_mass", "simulation",
             "controller", "disturbance"}
 
@@ -215,7 +217,10 @@ def plant_and_settings(data: dict, path) -> tuple[Robot, dict]:
         if key not in SIMULATION_KEYS:
             raise ScenarioFileError(path, f"simulation.{key}",
                                     f"unknown key (use {', '.join(sorted(SIMULATION_KEYS))})")
-        if key == "method":
+        if key == "dynamics" and value not in DYNAMICS_CHOICES:
+            raise ScenarioFileError(path, f"simulation.{key}",
+                                    f"{value!r} is not one of {', '.join(DYNAMICS_CHOICES)}")
+        if key in ("method", "dynamics"):
             settings[key] = str(value)
         elif key == "log_every":
             settings[key] = int(_number(value, path, f"simulation.{key}"))
