@@ -111,3 +111,22 @@ def test_a_robot_with_a_closed_form_still_pickles():
     closed_form_module(robot)
     copy = pickle.loads(pickle.dumps(robot))
     assert closed_form_module(copy) is closed_form_module(robot)
+
+
+def test_a_pickled_robot_finds_its_closed_form_in_a_fresh_process(monkeypatch):
+    import armlab.closed_form as cf
+
+    robot = armlab.load_robot("prp")
+    module = closed_form_module(robot)
+    copy = pickle.loads(pickle.dumps(robot))
+    monkeypatch.setattr(cf, "_MODULES", {})           # what another process starts with
+    assert closed_form_module(copy).__name__ == module.__name__
+
+
+def test_generated_kernels_refuse_wrong_lengths():
+    robot = armlab.load_robot("prp")
+    module = closed_form_module(robot)
+    packed = pack_plant(robot.arrays)
+    out = np.zeros(3)
+    assert module.forward_dynamics(packed, np.zeros(2), np.zeros(3), np.zeros(3), np.zeros(6), out) == 1
+    assert np.isnan(module.kinetic_energy(packed, np.zeros(3), np.zeros(4)))

@@ -28,16 +28,15 @@ def test_indirect_calls_return_what_direct_calls_return():
     q, qd, tau = rng.normal(size=(3, robot.n))
     h_e = rng.normal(size=6)
     packed = pack_plant(robot.arrays)
-    energy = _energy_through(kernel_address(kinetic_energy_packed, (VEC,) * 3), packed, q, qd)
+    energy = _energy_through(kernel_address(kinetic_energy_packed, (VEC,) * 3, types.float64), packed, q, qd)
     assert energy == armlab.kinetic_energy(robot, q, qd)
     out = np.zeros(robot.n)
-    status = _forward_through(kernel_address(forward_dynamics_packed, (VEC,) * 6), packed, q, qd, tau,
-                              h_e, out)
+    forward = kernel_address(forward_dynamics_packed, (VEC,) * 6, types.int64)
+    status = _forward_through(forward, packed, q, qd, tau, h_e, out)
     assert status == 0
     np.testing.assert_array_equal(out, armlab.forward_dynamics(robot, q, qd, tau, h_e=h_e))
     # A wrong length comes back as the kernel's status, memory untouched.
-    assert _forward_through(kernel_address(forward_dynamics_packed, (VEC,) * 6), packed, q[:2], qd,
-                            tau, h_e, out) == 1
+    assert _forward_through(forward, packed, q[:2], qd, tau, h_e, out) == 1
 
 
 @njit(cache=False)
@@ -53,7 +52,7 @@ def _divide_through(address, a, b, out):
 
 def test_an_exception_in_the_callee_reaches_the_caller():
     vec_i = types.int64[::1]
-    address = kernel_address(_divide, (vec_i, vec_i, vec_i))
+    address = kernel_address(_divide, (vec_i, vec_i, vec_i), types.none)
     out = np.zeros(1, dtype=np.int64)
     assert _divide_through(address, np.array([7]), np.array([2]), out) == 3
     with pytest.raises(ZeroDivisionError):
@@ -73,7 +72,7 @@ def _through_the_stack(address, params):
 
 def test_a_parameter_tuple_crosses_as_a_stack_address():
     params = (np.array([1.0, 2.5, 4.0]), 3.0)
-    address = kernel_address(_read_back, (types.CPointer(typeof(params)),))
+    address = kernel_address(_read_back, (types.CPointer(typeof(params)),), types.float64)
     assert _through_the_stack(address, params) == 7.5
 
 
@@ -121,3 +120,28 @@ def test_a_law_that_is_not_compiled_is_refused_by_name():
     robot = armlab.load_robot("prp")
     with pytest.raises(ProtocolError, match="Plain.law: .* is not a numba.njit function"):
         simulate(robot, Plain(robot), q0=np.zeros(3), t_final=0.01, dt=1e-3)
+
+
+@njit(cache=False)
+def _returns_something(a):
+    a[0] = 1.0
+    return a
+
+
+def test_a_callee_returning_the_wrong_type_is_refused_before_any_call():
+    from armlab.kernels.indirect import IndirectCallError
+
+    with pytest.raises(IndirectCallError, match="returns array.*expects none"):
+        kernel_address(_returns_something, (VEC,), types.none)
+
+
+def test_parameter_type_keys_tell_apart_what_numba_types_differently():
+    key = integrators._type_key
+    assert key((np.zeros(3), 1.0)) == key((np.ones(3), 2.0))
+    assert key((np.zeros(3),)) != key((np.zeros(3, dtype=np.float32),))
+    assert key((np.zeros(3),)) != key((np.zeros((3, 1))[:, 0].copy(order="F")[::2],))
+    assert key((1,)) != key((2**63,))                  # int64 vs uint64
+    assert key((_divide,)) != key((_read_back,))       # compiled functions: typeof
+    record = np.zeros(2, dtype=[("a", "f8"), ("b", "f8")])
+    other = np.zeros(2, dtype=[("a", "f8"), ("c", "i8")])
+    assert key((record,)) != key((other,))

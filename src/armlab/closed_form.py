@@ -12,7 +12,8 @@ module makes it available to compiled code with the signatures of the packed-rob
     kinetic_energy(packed, q, qd) -> T                              (D6)
 
 The generated module (``armlab.symbolic.module_source``) is written to the cache directory
-(``ARMLAB_CACHE_DIR``, default ``$XDG_CACHE_HOME/armlab`` or ``~/.cache/armlab``) under a key
+(folder ``closed_form`` of ``ARMLAB_CACHE_DIR``, default ``$XDG_CACHE_HOME/armlab`` or
+``~/.cache/armlab``) under a key
 made of the robot's numbers and the generator's source, and numba caches its compile beside
 it: the derivation (seconds for a 3-joint arm) and the compile happen once per robot and
 machine.  Every module is checked against the numeric kernels at random states before it is
@@ -83,13 +84,17 @@ def _key(robot: Robot) -> str:
 
 
 def _writable_folder() -> Path:
+    """``cache_dir()/closed_form``, or a private folder of this user's in the temporary
+    directory when that is not writable (code is imported from it: nobody else may write)."""
     folder = cache_dir() / "closed_form"
     try:
         folder.mkdir(parents=True, exist_ok=True)
         (folder / ".write-test").touch()
     except OSError:
-        folder = Path(tempfile.gettempdir()) / "armlab-closed-form"
-        folder.mkdir(parents=True, exist_ok=True)
+        folder = Path(tempfile.gettempdir()) / f"armlab-closed-form-{os.getuid()}"
+        folder.mkdir(mode=0o700, exist_ok=True)
+        if folder.stat().st_uid != os.getuid() or folder.stat().st_mode & 0o022:
+            raise ClosedFormUnavailable(f"{folder}: not a private folder of this user") from None
     return folder
 
 
@@ -124,9 +129,11 @@ def _verify(robot: Robot, module) -> str:
     packed = pack_plant(robot.arrays)  # ignored by the generated code
     lo = np.where(np.isfinite(robot.arrays.q_min), robot.arrays.q_min, -np.pi)
     hi = np.where(np.isfinite(robot.arrays.q_max), robot.arrays.q_max, np.pi)
-    for _ in range(3):
+    for trial in range(4):
         q = rng.uniform(lo, hi)
         qd, qdd, tau = rng.normal(size=(3, n))
+        if trial == 3:
+            qd[:] = 0.0  # Coulomb friction's sgn(0) = 0 branch
         h_e = rng.normal(size=6)
         got = np.zeros(n)
         expected = inverse_dynamics(robot, q, qd, qdd)
@@ -153,7 +160,9 @@ def closed_form_module(robot: Robot):
         ok, text = known
         if not ok:
             raise ClosedFormUnavailable(text)
-        return _MODULES[text]
+        if text in _MODULES:
+            return _MODULES[text]
+        # A robot pickled into another process: its module is loaded (and checked) anew.
     key = _key(robot)
     name = f"armlab_closed_form_{key}"
     reason = ""
@@ -166,7 +175,8 @@ def closed_form_module(robot: Robot):
             module = _import(path, name)
             reason = _verify(robot, module)
         except Exception as error:  # the symbolic model may not cover a robot: say so, fall back
-            reason = f"no closed form for robot {robot.name!r}: {type(error).__name__}: {error}"
+            first_line = (str(error).strip().splitlines() or [""])[0]
+            reason = f"no closed form for robot {robot.name!r}: {type(error).__name__}: {first_line}"
     if reason:
         robot.__dict__[_KEY] = (False, reason)
         raise ClosedFormUnavailable(reason)

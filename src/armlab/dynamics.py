@@ -10,7 +10,8 @@ skew-symmetric), h_e = [f_e; μ_e] is the wrench the end effector exerts on the 
 in Σ_0, with μ_e about Σ_e's origin.  Units SI; q̇ [m/s | rad/s], τ [N | N·m].
 
 Each function is a thin, checked wrapper of a compiled kernel of
-:mod:`armlab.kernels.dynamics`; compiled code (simulation loops) calls those kernels directly.
+:mod:`armlab.kernels.dynamics`; compiled code calls those kernels directly, or through their
+addresses over a packed robot (``armlab.kernels.plant``, the simulation loop).
 Every call returns a new array (never one shared with another call).
 
 Why the wrappers look the way they do (one call costs about a microsecond, so the Python side

@@ -328,7 +328,10 @@ def _run_adaptive(setup, cparams, meta, on_divergence, rtol, atol, integrator):
     start = time.perf_counter()
 
     def rhs(t, x, call_law, z_rate):
-        integrators.rhs(rhs_core, fn, t, x, pp, cparams, setup.eparams, setup.dist, has_env,
+        # SciPy may hand a strided column (Radau's, BDF's numerical Jacobian); the loop
+        # reads its state as contiguous float64.
+        x = np.ascontiguousarray(x, dtype=float)
+        integrators.rhs(rhs_core, fn, float(t), x, pp, cparams, setup.eparams, setup.dist, has_env,
                         call_law, z_rate, setup.lim, work, width, xdot)
         return xdot.copy()
 

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit, types
 
-from armlab.closed_form import DYNAMICS_CHOICES, inverse_dynamics_kernel
+from armlab.closed_form import DYNAMICS_CHOICES, ClosedFormUnavailable, inverse_dynamics_kernel
 from armlab.control.base import Controller, ProtocolError, Signal
 from armlab.dynamics import packed_copy
 from armlab.kernels.dynamics import gravity_into, make_workspace
@@ -191,8 +191,11 @@ class JointInverseDynamics(Controller):
 
     def params(self):
         n = self.n
-        kernel = inverse_dynamics_kernel(self.model, self.dynamics, "dynamics")
-        return (kernel_address(kernel, (_VEC,) * 5), packed_copy(self.model),
+        try:
+            kernel = inverse_dynamics_kernel(self.model, self.dynamics, "dynamics")
+        except ClosedFormUnavailable as error:
+            raise ProtocolError(f"dynamics: {error}") from None
+        return (kernel_address(kernel, (_VEC,) * 5, types.none), packed_copy(self.model),
                 np.array(self.reference.data), self.kp, self.kd, np.zeros(n), np.zeros(n),
                 np.zeros(n), np.zeros(n))
 

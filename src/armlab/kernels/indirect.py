@@ -8,7 +8,7 @@ function argument could not be cached on disk at all (the argument's type belong
 process).  Calling through an address keeps every kernel compiled once, in its own cached
 module, and lets one cached loop call any law, environment or plant model:
 
-    address = kernel_address(rnea_into, (arrays_type, workspace_type, ...))   # Python, per process
+    address = kernel_address(rnea_into, (arrays_type, workspace_type, ...), types.none)
     call_none(address, (m, ws, q, qd, qdd, 1.0, h_e, tau))                   # compiled code
 
 The call uses numba's own calling convention for the argument types as the caller sees them,
@@ -19,11 +19,15 @@ raised by the callee propagate to the caller as in a direct call.
 
 from __future__ import annotations
 
+import threading
+
 from llvmlite import ir
 from numba import types
 from numba.core import cgutils
 from numba.core.callconv import excinfo_t
 from numba.extending import intrinsic
+
+from armlab.errors import ArmlabError
 
 __all__ = ["call_bool", "call_float", "call_int", "call_none", "call_status", "kernel_address",
            "stack_address"]
@@ -81,26 +85,42 @@ call_int = _indirect_call(types.int64)
 call_status = _indirect_call(types.UniTuple(types.int64, 4))
 
 _ADDRESSES: dict = {}
+# Compiling a stated signature briefly lifts an entry point's compile ban (below); threads of
+# a parallel sweep may ask for addresses at the same time.
+_COMPILE_LOCK = threading.Lock()
 
 
-def kernel_address(dispatcher, argtypes: tuple) -> int:
+class IndirectCallError(ArmlabError, TypeError):
+    """A compiled function does not return what its indirect caller expects."""
+
+
+def kernel_address(dispatcher, argtypes: tuple, restype) -> int:
     """Machine address of ``dispatcher`` compiled for ``argtypes`` (compiled or loaded from
-    numba's disk cache on first use; remembered for the process)."""
+    numba's disk cache on first use; remembered for the process).
+
+    ``restype`` is the return type the caller's ``call_*`` expects: the caller reserves room
+    for exactly that, so a function returning anything else (a law ending in ``return tau``)
+    is refused here instead of overwriting the caller's stack."""
     key = (dispatcher, tuple(argtypes))
     address = _ADDRESSES.get(key)
     if address is None:
         argtypes = tuple(argtypes)
-        result = dispatcher.overloads.get(argtypes)
-        if result is None:
-            # Entry points of armlab.dynamics refuse to compile from a call (one signature
-            # each); compiling a stated signature here is what they are waiting for.
-            can_compile = dispatcher._can_compile
-            dispatcher._can_compile = True
-            try:
-                dispatcher.compile(argtypes)
-            finally:
-                dispatcher._can_compile = can_compile
-            result = dispatcher.overloads[argtypes]
+        with _COMPILE_LOCK:
+            result = dispatcher.overloads.get(argtypes)
+            if result is None:
+                # Entry points of armlab.dynamics refuse to compile from a call (one
+                # signature each); compiling a stated signature here is what they wait for.
+                can_compile = dispatcher._can_compile
+                dispatcher._can_compile = True
+                try:
+                    dispatcher.compile(argtypes)
+                finally:
+                    dispatcher._can_compile = can_compile
+                result = dispatcher.overloads[argtypes]
+        returned = result.signature.return_type
+        if returned != restype:
+            name = getattr(dispatcher, "__qualname__", None) or dispatcher.py_func.__qualname__
+            raise IndirectCallError(f"{name}: returns {returned}, its caller expects {restype}")
         address = result.library.get_pointer_to_function(result.fndesc.llvm_func_name)
         _ADDRESSES[key] = address
     return address

@@ -133,13 +133,17 @@ def env_trampoline(ep, env, t, R_0e, p_0e, v_e, h_e_out):
 
 def _type_key(value):
     """A cheap stand-in for ``numba.typeof(value)`` of a parameter tuple (which costs ~0.1 ms):
-    equal keys mean equal numba types for the arrays, numbers and (named) tuples of params."""
-    if isinstance(value, np.ndarray):
-        return (value.dtype.str, value.ndim, value.flags.c_contiguous, value.flags.f_contiguous,
-                value.flags.writeable)
+    equal keys mean equal numba types.  Arrays, (named) tuples, floats, bools and int64-range
+    ints are keyed by what decides their numba type; anything else by ``typeof`` itself."""
+    kind = type(value)
+    if kind is np.ndarray:
+        return (value.dtype, value.ndim, value.flags.c_contiguous, value.flags.f_contiguous,
+                value.flags.writeable, value.flags.aligned)
     if isinstance(value, tuple):
-        return (type(value), tuple(_type_key(v) for v in value))
-    return type(value)
+        return (kind, tuple(_type_key(v) for v in value))
+    if kind is float or kind is bool or (kind is int and -2**63 <= value < 2**63):
+        return kind
+    return typeof(value)
 
 
 _FN: dict = {}
@@ -159,19 +163,19 @@ def addresses(law, env_law, cparams, eparams, forward_dynamics=None, kinetic_ene
 
 
 def _addresses(law, env_law, cparams, eparams, forward_dynamics, kinetic_energy):
-    vec, mat, f64 = _VEC, _MAT, _F64
+    vec, mat, f64, none = _VEC, _MAT, _F64, types.none
     ctype, etype = typeof(cparams), typeof(eparams)
     fd = forward_dynamics_packed if forward_dynamics is None else forward_dynamics
     ke = kinetic_energy_packed if kinetic_energy is None else kinetic_energy
     return np.array([
-        kernel_address(law_trampoline, (types.CPointer(ctype), _I64, f64) + (vec,) * 7),
-        kernel_address(law, (f64, vec, vec, vec, vec, ctype, vec, vec, vec)),
-        kernel_address(env_trampoline, (types.CPointer(etype), _I64, f64, mat, vec, vec, vec)),
-        kernel_address(env_law, (f64, mat, vec, vec, etype, vec)),
-        kernel_address(fd, (vec,) * 6),
-        kernel_address(ke, (vec,) * 3),
-        kernel_address(measure_packed, (vec, vec, vec, vec, mat, vec, vec)),
-        kernel_address(disturbance_into, (vec, f64, vec, vec, vec)),
+        kernel_address(law_trampoline, (types.CPointer(ctype), _I64, f64) + (vec,) * 7, none),
+        kernel_address(law, (f64, vec, vec, vec, vec, ctype, vec, vec, vec), none),
+        kernel_address(env_trampoline, (types.CPointer(etype), _I64, f64, mat, vec, vec, vec), none),
+        kernel_address(env_law, (f64, mat, vec, vec, etype, vec), none),
+        kernel_address(fd, (vec,) * 6, _I64),
+        kernel_address(ke, (vec,) * 3, f64),
+        kernel_address(measure_packed, (vec, vec, vec, vec, mat, vec, vec), none),
+        kernel_address(disturbance_into, (vec, f64, vec, vec, vec), none),
     ], dtype=np.int64)
 
 
@@ -396,11 +400,12 @@ _CORE_TYPES = {
             types.boolean, _VEC, _VEC, _I64, _VEC, _I64),
 }
 _CORES = {"rk4": rk4_core, "rhs": rhs_core, "log": log_core}
+_CORE_RETURNS = {"rk4": types.UniTuple(types.int64, 4), "rhs": types.int64, "log": types.none}
 
 
 def core_address(name: str) -> int:
     """Address of the loop ``name`` ("rk4", "rhs" or "log"), for the entries below."""
-    return kernel_address(_CORES[name], _CORE_TYPES[name])
+    return kernel_address(_CORES[name], _CORE_TYPES[name], _CORE_RETURNS[name])
 
 
 # Entries: compiled per (controller, environment) parameter types, they only unbox the

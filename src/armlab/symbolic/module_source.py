@@ -4,9 +4,9 @@ The module is written to a file (``armlab.closed_form``) so that numba caches it
 disk like any other kernel; the functions have the signatures of the packed-robot kernels of
 ``armlab.kernels.plant`` and ignore the packed robot (the robot's numbers are in the formulas):
 
-    inverse_dynamics(packed, q, qd, qdd, tau_out)
+    inverse_dynamics(packed, q, qd, qdd, tau_out)          (lengths unchecked: compiled callers)
         τ = B(q) q̈ + C(q, q̇) q̇ + g(q) + F_v q̇ + F_s sgn q̇                          (D1, h_e = 0)
-    forward_dynamics(packed, q, qd, tau, h_e, qdd_out) -> 0 | 2 (B not positive definite)
+    forward_dynamics(packed, q, qd, tau, h_e, qdd_out) -> 0 | 1 wrong length | 2 B not PD
         B(q) q̈ = τ − C q̇ − g − F_v q̇ − F_s sgn q̇ − Jᵀ(q) h_e                          (D1, D5)
     kinetic_energy(packed, q, qd) -> T = ½ q̇ᵀ B(q) q̇                                    (D6)
 
@@ -160,7 +160,11 @@ def closed_form_source(sr: SymbolicRobot, *, key: str, name: str) -> str:
             wrench.append(f"        r{c} -= " + " + ".join(terms))
     forward = ["@njit(cache=True, _nrt=False)",
                "def forward_dynamics(packed, q, qd, tau, h_e, qdd_out):",
-               '    """q̈ of B q̈ = τ − C q̇ − g − F_v q̇ − F_s sgn q̇ − Jᵀ h_e (D1, D5); 2 if B is not PD."""',
+               '    """q̈ of B q̈ = τ − C q̇ − g − F_v q̇ − F_s sgn q̇ − Jᵀ h_e (D1, D5); 1 for a wrong'
+               ' length, 2 if B is not PD."""',
+               f"    if (q.shape[0] != {n} or qd.shape[0] != {n} or tau.shape[0] != {n}"
+               f" or h_e.shape[0] != 6 or qdd_out.shape[0] != {n}):",
+               "        return 1",
                *unpack, *cse_lines, *assign_B, *friction,
                *[f"    r{i} = {rhs[i]}" for i in range(n)], *wrench,
                *_ldl_solve(n, lambda i, j: zero[(i, j)], [f"r{i}" for i in range(n)]),
@@ -168,6 +172,8 @@ def closed_form_source(sr: SymbolicRobot, *, key: str, name: str) -> str:
     energy = sp.Rational(1, 2) * (sp.Matrix(qd).T * B * sp.Matrix(qd))[0, 0]
     cse_lines, outputs = _statements([energy], "e", printer)
     kinetic = ["@njit(cache=True, _nrt=False)", "def kinetic_energy(packed, q, qd):",
-               '    """T = ½ q̇ᵀ B q̇ (D6) [J]."""', *unpack, *cse_lines, f"    return {outputs[0]}"]
+               '    """T = ½ q̇ᵀ B q̇ (D6) [J]; NaN for a wrong length."""',
+               f"    if q.shape[0] != {n} or qd.shape[0] != {n}:", "        return math.nan",
+               *unpack, *cse_lines, f"    return {outputs[0]}"]
     return (HEADER.format(name=name, key=key) + "\n".join(inverse) + "\n\n\n" + "\n".join(forward)
             + "\n\n\n" + "\n".join(kinetic) + "\n")
