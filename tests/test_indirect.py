@@ -79,14 +79,17 @@ def test_a_parameter_tuple_crosses_as_a_stack_address():
 @njit(cache=False)
 def _scratch_extent(work, n, k, s):
     views = integrators.scratch_views(work, n, k, s)
-    last = views[-1]
-    return (last.ctypes.data - work.ctypes.data) // 8 + last.size
+    last, zdot = views[-1], views[8]
+    return ((last.ctypes.data - work.ctypes.data) // 8 + last.size,
+            (zdot.ctypes.data - work.ctypes.data) // 8)
 
 
 @pytest.mark.parametrize("n, k, s", [(1, 0, 0), (3, 12, 7), (6, 2, 30)])
 def test_the_scratch_views_fill_the_scratch_array_exactly(n, k, s):
     work = np.zeros(integrators.work_size(n, k, s))
-    assert _scratch_extent(work, n, k, s) == work.size
+    end, zdot_start = _scratch_extent(work, n, k, s)
+    assert end == work.size
+    assert zdot_start == integrators.zdot_slice(n, k).start   # where the adaptive path reads ż
 
 
 def test_the_log_columns_cover_what_a_row_writes():
