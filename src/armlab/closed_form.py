@@ -59,6 +59,14 @@ class ClosedFormUnavailable(ArmlabError):
     """The closed form of a robot cannot be used (says why)."""
 
 
+def choice_problem(dynamics) -> str:
+    """What is wrong with a ``dynamics`` choice ('' if it is one of ``DYNAMICS_CHOICES``); each
+    caller names the field in its own error class."""
+    if dynamics in DYNAMICS_CHOICES:
+        return ""
+    return f"{dynamics!r} is not one of {', '.join(DYNAMICS_CHOICES)}"
+
+
 def cache_dir() -> Path:
     """Where generated modules (and their numba caches) live."""
     root = os.environ.get("ARMLAB_CACHE_DIR")
@@ -192,8 +200,9 @@ def closed_form_status(robot: Robot) -> str:
 
 
 def _choose(robot: Robot, dynamics: str, field: str):
-    if dynamics not in DYNAMICS_CHOICES:
-        raise ClosedFormUnavailable(f"{field}: {dynamics!r} is not one of {', '.join(DYNAMICS_CHOICES)}")
+    problem = choice_problem(dynamics)
+    if problem:
+        raise ClosedFormUnavailable(f"{field}: {problem}")
     if dynamics == "numeric" or (dynamics == "auto" and robot.n > AUTO_MAX_JOINTS):
         return None
     try:

@@ -40,7 +40,7 @@ import time
 
 import numpy as np
 
-from armlab.closed_form import DYNAMICS_CHOICES, ClosedFormUnavailable, plant_kernels
+from armlab.closed_form import ClosedFormUnavailable, choice_problem, plant_kernels
 from armlab.control.base import Controller, Environment, ProtocolError, Signal
 from armlab.disturbances import encode_disturbances
 from armlab.dynamics import packed_copy
@@ -134,8 +134,8 @@ class _Setup:
         self.eparams = environment.params() if environment is not None else (np.zeros(1),)
         self.signals: tuple[Signal, ...] = tuple(controller.signals())
         self.sig_width = sum(s.width for s in self.signals)
-        if dynamics not in DYNAMICS_CHOICES:
-            raise SimulationError(f"dynamics: {dynamics!r} is not one of {', '.join(DYNAMICS_CHOICES)}")
+        if choice_problem(dynamics):
+            raise SimulationError(f"dynamics: {choice_problem(dynamics)}")
         try:
             self.dynamics, self.forward_dynamics, self.kinetic_energy = plant_kernels(plant, dynamics)
         except ClosedFormUnavailable as error:

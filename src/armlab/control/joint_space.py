@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit, types
 
-from armlab.closed_form import DYNAMICS_CHOICES, ClosedFormUnavailable, inverse_dynamics_kernel
+from armlab.closed_form import ClosedFormUnavailable, choice_problem, inverse_dynamics_kernel
 from armlab.control.base import Controller, ProtocolError, Signal
 from armlab.dynamics import packed_copy
 from armlab.kernels.dynamics import gravity_into, make_workspace
@@ -178,8 +178,8 @@ class JointInverseDynamics(Controller):
         _check_reference(self.reference, n)
         object.__setattr__(self, "kp", gain_matrix(self.kp, n, "kp"))
         object.__setattr__(self, "kd", gain_matrix(self.kd, n, "kd"))
-        if self.dynamics not in DYNAMICS_CHOICES:
-            raise ProtocolError(f"dynamics: {self.dynamics!r} is not one of {', '.join(DYNAMICS_CHOICES)}")
+        if choice_problem(self.dynamics):
+            raise ProtocolError(f"dynamics: {choice_problem(self.dynamics)}")
 
     @classmethod
     def from_poles(cls, model: Robot, reference: JointReference, omega_n, zeta=1.0):

@@ -46,7 +46,7 @@ from pathlib import Path
 
 import numpy as np
 
-from armlab.closed_form import DYNAMICS_CHOICES
+from armlab.closed_form import choice_problem
 from armlab.control.adaptive import SlotineLi, SlotineLi1DoF
 from armlab.control.joint_space import JointInverseDynamics, JointPDGravity
 from armlab.disturbances import DISTURBANCE_TYPES
@@ -217,9 +217,8 @@ def plant_and_settings(data: dict, path) -> tuple[Robot, dict]:
         if key not in SIMULATION_KEYS:
             raise ScenarioFileError(path, f"simulation.{key}",
                                     f"unknown key (use {', '.join(sorted(SIMULATION_KEYS))})")
-        if key == "dynamics" and value not in DYNAMICS_CHOICES:
-            raise ScenarioFileError(path, f"simulation.{key}",
-                                    f"{value!r} is not one of {', '.join(DYNAMICS_CHOICES)}")
+        if key == "dynamics" and choice_problem(value):
+            raise ScenarioFileError(path, f"simulation.{key}", choice_problem(value))
         if key in ("method", "dynamics"):
             settings[key] = str(value)
         elif key == "log_every":
