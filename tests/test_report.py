@@ -225,3 +225,40 @@ def test_report_renders_in_headless_chromium(report, tmp_path):
         pixels = np.asarray(image.convert("L"), dtype=float)
     assert pixels.shape == (1600, 1280)
     assert pixels.std() > 10.0  # the page drew text and figures, not a blank viewport
+
+
+def test_animation_subject_is_chosen_early_only_when_no_pending_run_can_change_it():
+    """The report draws its GIF while runs are still going once the choice is final: the run
+    of the report's robot with a plane that moved most, and no unfinished run of the robot
+    with a plane left."""
+    from types import SimpleNamespace
+
+    import armlab
+    from armlab.viz.drawing import Plane
+    from armlab.viz.report import Experiment, animation_subject
+
+    prp, link1 = armlab.load_robot("prp"), armlab.load_robot("link1")
+    wall = Plane((0.0, 0.0, 0.0), (0.0, 0.0, 1.0))
+
+    def run(name, robot, travel, plane=None, status="ok", done=True):
+        exp = Experiment(name=name, assignment=11, title=name, description="", parameters=[],
+                         robot=robot, plane=plane)
+        if done:
+            q = np.zeros((2, robot.n))
+            q[1, 0] = travel
+            exp.result = SimpleNamespace(t=np.array([0.0, 1.0]), q=q, status=status)
+        return exp
+
+    small, big = run("small", prp, 0.1, wall), run("big", prp, 0.3, wall)
+    free = run("free", prp, 5.0)  # moves most, but has no plane
+    other = run("other", link1, 9.0, wall)  # another robot
+    assert animation_subject([small, big, free, other], "prp", final=False) is big
+    pending = run("pending", prp, 0.0, wall, done=False)
+    assert animation_subject([small, big, pending], "prp", final=False) is None
+    assert animation_subject([small, big, pending], "prp") is big
+    pending_free = run("pending_free", prp, 0.0, done=False)
+    assert animation_subject([small, pending_free], "prp", final=False) is small
+    diverged = run("diverged", prp, 0.9, wall, status="diverged")
+    assert animation_subject([diverged, free], "prp", final=False) is None  # not a final choice yet
+    assert animation_subject([diverged, free], "prp") is free
+    assert animation_subject([], "prp") is None

@@ -38,7 +38,6 @@ from armlab.control.task_space import (
 )
 from armlab.kernels.dynamics import make_workspace
 from armlab.kernels.task_space import (
-    RELATIVE,
     compliant_frame_into,
     frame_from_vector,
     log_task_signals,
@@ -128,7 +127,9 @@ def admittance_law(t, q, qd, z, h_e, params, tau_out, zdot_out, signals_out):
         zdot_out[6 + i] = acc
     compliant_frame_into(ws.frame, z[:6], z[6:], zdd, ws.vec, ws.mat, frame_t)
     measure_into(m, q, qd, ws)
-    task_error_into(RELATIVE, frame_t, convention, angles, qd, ws)
+    # mode is RELATIVE (frame 'desired' is enforced); the parameter, not the literal constant,
+    # so that task_error_into is the version every other law links.
+    task_error_into(mode, frame_t, convention, angles, qd, ws)
     select_rows_into(task, ws.JA, ws.A)
     for r in range(k):
         acc = ws.c[task[r]]
@@ -136,7 +137,7 @@ def admittance_law(t, q, qd, z, h_e, params, tau_out, zdot_out, signals_out):
             acc += kd[r, c] * ws.x_err_dot[task[c]] + kp[r, c] * ws.x_err[task[c]]
         ws.rhs[r] = acc
     task_solve_into(ws.A, ws.rhs, damping[0], ws.G, ws.y)
-    solve_and_apply(m, dws, ws, q, qd, h_e, True, tau_out)
+    solve_and_apply(m, dws, ws, q, qd, h_e, 1.0, tau_out)
     start = log_task_signals(ws, task, signals_out, log_pose_signals(ws, signals_out))
     for i in range(3):
         signals_out[start + i] = frame_t[i]
@@ -222,13 +223,15 @@ def force_motion_law(t, q, qd, z, h_e, params, tau_out, zdot_out, signals_out):
             acc += md_inv[r, c] * ws.h[c]
         ws.rhs[r] = acc
     task_solve_into(ws.A, ws.rhs, damping, ws.G, ws.y)
-    solve_and_apply(m, dws, ws, q, qd, h_e, True, tau_out)
+    solve_and_apply(m, dws, ws, q, qd, h_e, 1.0, tau_out)
     for i in range(3):
         signals_out[i] = f_d[i]
         signals_out[3 + i] = x_f[i]
         signals_out[6 + i] = ws.p_e[i]
         signals_out[9 + i] = ws.frame[i]
-    log_task_signals(ws, task, signals_out, 12)
+    # 4 f_d.shape[0] = 12 written above; not the literal 12, which would compile
+    # log_task_signals once more (a literal int is part of the compiled signature).
+    log_task_signals(ws, task, signals_out, 4 * f_d.shape[0])
 
 
 INNER_LOOPS = ("position", "velocity")

@@ -250,16 +250,19 @@ def inverse_dynamics_law(t, q, qd, z, h_e, params, tau_out, zdot_out, signals_ou
             acc += md_inv[r, c] * ws.h[c]
         ws.rhs[r] = acc
     task_solve_into(ws.A, ws.rhs, damping, ws.G, ws.y)
-    solve_and_apply(m, dws, ws, q, qd, h_e, with_force, tau_out)
+    solve_and_apply(m, dws, ws, q, qd, h_e, options[0], tau_out)
     log_task_signals(ws, task, signals_out, log_pose_signals(ws, signals_out))
 
 
 @njit(cache=True)
 def solve_and_apply(m, dws, ws, q, qd, h_e, compensate, tau_out):
-    """τ = B(q) ws.y + n(q, q̇) (+ Jᵀ h_e when ``compensate``) into tau_out."""
+    """τ = B(q) ws.y + n(q, q̇) (+ Jᵀ h_e when ``compensate`` ≠ 0) into tau_out.
+
+    ``compensate`` is a float (1.0 or 0.0), not a bool: a literal True would be part of the
+    compiled signature, and callers passing literals and computed flags compiled it twice."""
     n = q.shape[0]
     for i in range(6):
-        ws.w6[i] = h_e[i] if compensate else 0.0
+        ws.w6[i] = h_e[i] if compensate != 0.0 else 0.0
     bias_into(m, dws, q, qd, ws.w6, tau_out)
     mass_matrix_into(m, dws, q, ws.G)
     for i in range(n):

@@ -162,6 +162,20 @@ def addresses(law, env_law, cparams, eparams, forward_dynamics=None, kinetic_ene
     return fn
 
 
+def compile_shared() -> None:
+    """Compile what every loop shares, whatever the controller: the three loops, the plant's
+    kinematics (``measure_packed``), the disturbances and the general plant kernels (a process
+    that starts many simulations can build these while another builds the dynamics,
+    ``armlab.precompile``)."""
+    for name in _CORES:
+        core_address(name)
+    kernel_address(measure_packed, (_VEC, _VEC, _VEC, _VEC, _MAT, _VEC, _VEC), types.none)
+    kernel_address(disturbance_into, (_VEC, _F64, _VEC, _VEC, _VEC), types.none)
+    free = typeof((np.zeros(1),))  # the parameters of a run without environment
+    kernel_address(env_trampoline, (types.CPointer(free), _I64, _F64, _MAT, _VEC, _VEC, _VEC), types.none)
+    kernel_address(no_environment_law, (_F64, _MAT, _VEC, _VEC, free, _VEC), types.none)
+
+
 def _addresses(law, env_law, cparams, eparams, forward_dynamics, kinetic_energy):
     vec, mat, f64, none = _VEC, _MAT, _F64, types.none
     ctype, etype = typeof(cparams), typeof(eparams)
