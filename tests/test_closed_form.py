@@ -74,7 +74,7 @@ def test_the_wrench_term_of_the_closed_form_in_a_contact_run():
     np.testing.assert_allclose(runs[1].q, runs[0].q, rtol=0, atol=1e-9)
 
 
-def test_auto_uses_the_closed_form_for_small_robots_only():
+def test_auto_uses_the_generated_dynamics_for_small_and_large_robots():
     prp, puma = armlab.load_robot("prp"), armlab.load_robot("puma560")
     pd = armlab.control.joint_space.JointPDGravity
     reference = armlab.references.Constant
@@ -82,7 +82,10 @@ def test_auto_uses_the_closed_form_for_small_robots_only():
                      dt=1e-3)
     large = simulate(puma, pd(puma, reference(np.zeros(6)), 10.0, 2.0), q0=np.zeros(6), t_final=0.01,
                      dt=1e-3)
-    assert small.meta["dynamics"] == "closed_form" and large.meta["dynamics"] == "numeric"
+    # Lagrange's closed form for the PRP, the traced kernels (armlab.traced) for the Puma.
+    assert small.meta["dynamics"] == "closed_form" and large.meta["dynamics"] == "closed_form"
+    assert "armlab.symbolic" in closed_form_module(prp).__doc__
+    assert "armlab.traced" in closed_form_module(puma).__doc__
 
 
 def test_bad_choices_and_unavailable_closed_forms_are_named():

@@ -2,30 +2,36 @@
 
 A general recursive algorithm pays for its generality at every call: it loops over joints,
 multiplies by zeros and ones of the joint geometry and reads the robot's numbers from memory.
-For a small robot the closed form — B(q), C(q, q̇) q̇ + g(q) and J(q) written out with the
-robot's numbers, as ``armlab.symbolic`` derives them (A2–A3) — is several times faster.  This
-module makes it available to compiled code with the signatures of the packed-robot kernels of
-``armlab.kernels.plant``:
+Code written out for one robot, with its numbers in the formulas, is several times faster.
+This module makes it available to compiled code with the signatures of the packed-robot
+kernels of ``armlab.kernels.plant``:
 
     inverse_dynamics(packed, q, qd, qdd, tau_out)                  τ of (D1), h_e = 0
     forward_dynamics(packed, q, qd, tau, h_e, qdd_out) -> status    q̈ of (D1), (D5)
     kinetic_energy(packed, q, qd) -> T                              (D6)
 
-The generated module (``armlab.symbolic.module_source``) is written to the cache directory
-(folder ``closed_form`` of ``ARMLAB_CACHE_DIR``, default ``$XDG_CACHE_HOME/armlab`` or
-``~/.cache/armlab``) under a key
-made of the robot's numbers and the generator's source, and numba caches its compile beside
-it: the derivation (seconds for a 3-joint arm) and the compile happen once per robot and
-machine.  Every module is checked against the numeric kernels at random states before it is
-used (relative agreement 1e-9); one that disagrees, or a robot whose symbolic model cannot be
-built, falls back to the numeric kernels with the reason in :func:`closed_form_status`.
+Two generators write such a module:
+
+* robots of up to ``AUTO_MAX_JOINTS`` joints: the Lagrange closed form — B(q), C(q, q̇) q̇ + g(q)
+  and J(q) as ``armlab.symbolic`` derives them (A2–A3), printed by
+  ``armlab.symbolic.module_source`` (the symbolic derivation grows quickly with n);
+* larger robots: ``armlab.traced``, the numeric RNEA/CRBA kernels partially evaluated for the
+  robot's numbers (straight-line code, the geometry's zeros and ones folded away).
+
+The module is written to the cache directory (folder ``closed_form`` of ``ARMLAB_CACHE_DIR``,
+default ``$XDG_CACHE_HOME/armlab`` or ``~/.cache/armlab``) under a key made of the robot's
+numbers and its generator's sources, and numba caches its compile beside it: the generation
+(seconds of SymPy for a 3-joint arm, a fraction of a second of tracing for the Puma560) and the
+compile (~7 s for the Puma560) happen once per robot and machine.  Every module is checked against the
+numeric kernels at random states before it is used (relative agreement 1e-9); one that
+disagrees, or a robot whose model cannot be generated, falls back to the numeric kernels with
+the reason in :func:`closed_form_status`.
 
 The choice, ``dynamics=``:
 
 * ``"numeric"`` — the general compiled RNEA/CRBA kernels (any robot);
-* ``"closed_form"`` — the closed form, or an error saying why it is not available;
-* ``"auto"`` (default) — the closed form for robots of up to ``AUTO_MAX_JOINTS`` joints (the
-  symbolic derivation grows quickly with n), else numeric.
+* ``"closed_form"`` — the robot's generated module, or an error saying why it is not available;
+* ``"auto"`` (default) — the generated module, else (with the reason kept) the numeric kernels.
 """
 
 from __future__ import annotations
@@ -49,6 +55,7 @@ from armlab.kernels.plant import (
 )
 from armlab.model.robot import Robot
 
+# Up to this many joints the Lagrange closed form (armlab.symbolic), beyond it armlab.traced.
 AUTO_MAX_JOINTS = 3
 DYNAMICS_CHOICES = ("auto", "closed_form", "numeric")
 _KEY = "_closed_form_module"
@@ -76,17 +83,27 @@ def cache_dir() -> Path:
     return Path(base) / "armlab"
 
 
+def _generator(robot: Robot) -> str:
+    """Which generator writes the robot's module: "lagrange" (armlab.symbolic) or "traced"."""
+    return "lagrange" if robot.n <= AUTO_MAX_JOINTS else "traced"
+
+
 def _key(robot: Robot) -> str:
-    """Hash of everything the generated code depends on: the robot's numbers and the source
-    of the generator and of the symbolic model."""
+    """Hash of everything the generated code depends on: the robot's numbers and the sources
+    of its generator — the symbolic model, or the traced generator and the kernels it evaluates."""
     digest = hashlib.sha256()
     for name, value in zip(robot.arrays._fields, robot.arrays, strict=True):
         digest.update(name.encode())
         digest.update(np.ascontiguousarray(value).tobytes())
     digest.update(repr(robot.spec).encode() if getattr(robot, "spec", None) is not None else b"")
-    from armlab import symbolic
-
-    for path in sorted(Path(symbolic.__file__).parent.glob("*.py")):
+    # Read, not imported: importing armlab.symbolic would import SymPy (~1 s) for a key.
+    here = Path(__file__).parent
+    sources = sorted((here / "symbolic").glob("*.py"))
+    if _generator(robot) == "traced":
+        digest.update(b"traced")
+        sources = [here / "traced.py", here / "kernels" / "dynamics.py",
+                   here / "symbolic" / "module_source.py"]           # its LDLᵀ lines
+    for path in sources:
         digest.update(path.read_bytes())
     return digest.hexdigest()[:20]
 
@@ -107,10 +124,15 @@ def _writable_folder() -> Path:
 
 
 def _generate(robot: Robot, key: str, path: Path) -> None:
-    from armlab.symbolic.model import symbolic_robot
-    from armlab.symbolic.module_source import closed_form_source
+    if _generator(robot) == "lagrange":
+        from armlab.symbolic.model import symbolic_robot
+        from armlab.symbolic.module_source import closed_form_source
 
-    source = closed_form_source(symbolic_robot(robot, numeric=True), key=key, name=robot.name)
+        source = closed_form_source(symbolic_robot(robot, numeric=True), key=key, name=robot.name)
+    else:
+        from armlab.traced import traced_source
+
+        source = traced_source(robot, key=key, name=robot.name)
     # Written atomically: parallel processes may generate the same module.
     handle, temporary = tempfile.mkstemp(dir=path.parent, suffix=".tmp")
     with os.fdopen(handle, "w") as stream:
@@ -203,7 +225,7 @@ def _choose(robot: Robot, dynamics: str, field: str):
     problem = choice_problem(dynamics)
     if problem:
         raise ClosedFormUnavailable(f"{field}: {problem}")
-    if dynamics == "numeric" or (dynamics == "auto" and robot.n > AUTO_MAX_JOINTS):
+    if dynamics == "numeric":
         return None
     try:
         return closed_form_module(robot)
