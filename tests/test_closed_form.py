@@ -88,6 +88,15 @@ def test_auto_uses_the_generated_dynamics_for_small_and_large_robots():
     assert "armlab.traced" in closed_form_module(puma).__doc__
 
 
+def test_auto_leaves_robots_beyond_its_size_to_the_numeric_kernels(monkeypatch):
+    from armlab import closed_form
+
+    puma = armlab.load_robot("puma560")
+    monkeypatch.setattr(closed_form, "AUTO_MAX_JOINTS", puma.n - 1)
+    assert closed_form.plant_kernels(puma, "auto")[0] == "numeric"
+    assert closed_form.plant_kernels(puma, "closed_form")[0] == "closed_form"  # asked for by name
+
+
 def test_bad_choices_and_unavailable_closed_forms_are_named():
     scenario = load_scenario("a7_id_via_points")
     with pytest.raises(SimulationError, match="dynamics: 'fast'"):

@@ -11,7 +11,7 @@ from hypothesis import given, settings
 
 import armlab
 from armlab import closed_form
-from armlab.closed_form import AUTO_MAX_JOINTS, closed_form_module
+from armlab.closed_form import LAGRANGE_MAX_JOINTS, closed_form_module
 from armlab.control.joint_space import JointInverseDynamics
 from armlab.kernels import dynamics as kernels
 from armlab.kernels.plant import pack_plant
@@ -34,9 +34,9 @@ def assert_close(actual, expected, what):
 
 def traced_module(robot, monkeypatch=None):
     """The robot's traced module from armlab.closed_form; a robot small enough for the Lagrange
-    closed form is sent to the traced generator by lowering AUTO_MAX_JOINTS (``monkeypatch``)."""
-    if robot.n <= AUTO_MAX_JOINTS:
-        monkeypatch.setattr(closed_form, "AUTO_MAX_JOINTS", 0)
+    closed form is sent to the traced generator by lowering LAGRANGE_MAX_JOINTS (``monkeypatch``)."""
+    if robot.n <= LAGRANGE_MAX_JOINTS:
+        monkeypatch.setattr(closed_form, "LAGRANGE_MAX_JOINTS", 0)
         robot = robot.replace(links=robot.links)    # a new object: it remembers no closed form
     module = closed_form_module(robot)
     assert "armlab.traced" in module.__doc__
@@ -98,13 +98,13 @@ def test_puma560_equals_pinocchio():
 
 
 @FEW
-@given(robot=robots(min_joints=AUTO_MAX_JOINTS + 1, max_joints=6, motors=True, friction=True))
+@given(robot=robots(min_joints=LAGRANGE_MAX_JOINTS + 1, max_joints=6, motors=True, friction=True))
 def test_random_robots_equal_the_numeric_kernels(robot):
     compare_with_numeric(robot, traced_module(robot))
 
 
 @FEW
-@given(robot=robots(min_joints=AUTO_MAX_JOINTS + 1, max_joints=6))
+@given(robot=robots(min_joints=LAGRANGE_MAX_JOINTS + 1, max_joints=6))
 def test_random_robots_equal_pinocchio(robot):
     compare_with_pinocchio(robot, traced_module(robot))
 

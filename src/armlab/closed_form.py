@@ -12,7 +12,7 @@ kernels of ``armlab.kernels.plant``:
 
 Two generators write such a module:
 
-* robots of up to ``AUTO_MAX_JOINTS`` joints: the Lagrange closed form — B(q), C(q, q̇) q̇ + g(q)
+* robots of up to ``LAGRANGE_MAX_JOINTS`` joints: the Lagrange closed form — B(q), C(q, q̇) q̇ + g(q)
   and J(q) as ``armlab.symbolic`` derives them (A2–A3), printed by
   ``armlab.symbolic.module_source`` (the symbolic derivation grows quickly with n);
 * larger robots: ``armlab.traced``, the numeric RNEA/CRBA kernels partially evaluated for the
@@ -31,7 +31,8 @@ The choice, ``dynamics=``:
 
 * ``"numeric"`` — the general compiled RNEA/CRBA kernels (any robot);
 * ``"closed_form"`` — the robot's generated module, or an error saying why it is not available;
-* ``"auto"`` (default) — the generated module, else (with the reason kept) the numeric kernels.
+* ``"auto"`` (default) — the generated module for robots of up to ``AUTO_MAX_JOINTS`` joints,
+  else (or, with the reason kept, when it cannot be made) the numeric kernels.
 """
 
 from __future__ import annotations
@@ -56,7 +57,10 @@ from armlab.kernels.plant import (
 from armlab.model.robot import Robot
 
 # Up to this many joints the Lagrange closed form (armlab.symbolic), beyond it armlab.traced.
-AUTO_MAX_JOINTS = 3
+LAGRANGE_MAX_JOINTS = 3
+# "auto" uses a generated module up to this many joints: the code of B grows with n², and a
+# 12-joint arm's would take tens of seconds to compile (once per machine) before its first run.
+AUTO_MAX_JOINTS = 7
 DYNAMICS_CHOICES = ("auto", "closed_form", "numeric")
 _KEY = "_closed_form_module"
 _MODULES: dict = {}
@@ -85,7 +89,7 @@ def cache_dir() -> Path:
 
 def _generator(robot: Robot) -> str:
     """Which generator writes the robot's module: "lagrange" (armlab.symbolic) or "traced"."""
-    return "lagrange" if robot.n <= AUTO_MAX_JOINTS else "traced"
+    return "lagrange" if robot.n <= LAGRANGE_MAX_JOINTS else "traced"
 
 
 def _key(robot: Robot) -> str:
@@ -225,7 +229,7 @@ def _choose(robot: Robot, dynamics: str, field: str):
     problem = choice_problem(dynamics)
     if problem:
         raise ClosedFormUnavailable(f"{field}: {problem}")
-    if dynamics == "numeric":
+    if dynamics == "numeric" or (dynamics == "auto" and robot.n > AUTO_MAX_JOINTS):
         return None
     try:
         return closed_form_module(robot)

@@ -279,7 +279,8 @@ def simulate(plant, controller, *, q0, qd0=None, t_final, dt, method="rk4", cont
     limit_margin : a joint further than this fraction of its range outside its limits diverges.
     max_kinetic_energy : [J] bound of ½ q̇ᵀ B q̇ (checked every 10 steps).
     on_divergence : "raise" (``SimulationDiverged`` with ``.result``) or "return".
-    dynamics : the plant's forward dynamics: "auto" (its closed form when it has at most
+    dynamics : the plant's forward dynamics: "auto" (its generated closed form — Lagrange for
+        up to 3 joints, the traced kernels beyond — when it has at most
         ``armlab.closed_form.AUTO_MAX_JOINTS`` joints, else the RNEA/CRBA kernels),
         "closed_form" or "numeric" (``armlab.closed_form``).
     meta : extra JSON-able entries for ``result.meta`` (scenario name, …).
