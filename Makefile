@@ -10,17 +10,21 @@ TEST_STAMP := $(VENV)/.installed-test-$(HASH)
 
 .PHONY: demo test bench lint clean
 
+# The venv's own pip (>= 21.3) installs this project; upgrading it first cost seconds for nothing.
+# --no-compile: modules are byte-compiled when first imported instead of all at install (most
+# of SymPy, SciPy and Matplotlib never are), a fresh `make demo` ~10 s sooner.
+PIP := $(BIN)/python -m pip install --quiet --disable-pip-version-check --no-compile
+
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
-	$(BIN)/python -m pip install --quiet --upgrade pip
 
 $(RUN_STAMP): $(BIN)/python pyproject.toml
-	$(BIN)/python -m pip install --quiet -e .
+	$(PIP) -e .
 	rm -f $(VENV)/.installed-run-*
 	touch $(RUN_STAMP)
 
 $(TEST_STAMP): $(BIN)/python pyproject.toml
-	$(BIN)/python -m pip install --quiet -e ".[test]"
+	$(PIP) -e ".[test]"
 	rm -f $(VENV)/.installed-*
 	touch $(TEST_STAMP) $(RUN_STAMP)
 

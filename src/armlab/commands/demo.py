@@ -41,27 +41,34 @@ def run(args) -> int:
     if not robot.is_dh:
         raise CommandError(f"robot {robot.name!r} is not described by DH rows; "
                            f"see 'armlab robots {args.robot}'")
-    n = robot.n
-    print(f"{robot.name}: {robot.description}")
-    symbolic = dh_rows(robot)
-    numeric = dh_rows(robot, symbolic=False, q=q)
-    has_base_row = symbolic[0][0].startswith("base")
-    if has_base_row:
-        print("\nDH table from Σ_base (first row: the fixed transform Σ_base → Σ_0)")
-        print(format_table(DH_HEADERS, symbolic, "  "))
-    print("\nDH table from Σ_0")
-    print(format_table(DH_HEADERS, symbolic[1:] if has_base_row else symbolic, "  "))
-    print("\nParameters: " + ", ".join(f"{k} = {format_number(v, 6)}" for k, v in robot.parameters.items()))
-    pose = ", ".join(f"{j.name} = {format_number(v)}" for j, v in zip(robot.joints, q, strict=True))
-    print(f"\nAt the pose {pose}:")
-    print(format_table(DH_HEADERS, numeric, "  "))
-    print(f"\nForward kinematics T_{n}^0 = T_e^0 (end effector in Σ_0)")
-    print(format_matrix(forward_kinematics(robot, q, frame="0"), "  "))
-    print(f"\nForward kinematics T_{n}^base = T_base,0 · T_{n}^0")
-    print(format_matrix(forward_kinematics(robot, q, frame="base"), "  "))
-    if not args.no_report:
-        from armlab.viz.report import build_report
 
-        path = build_report(robot, args.out, quick=args.quick)
-        print(f"\nReport of the whole seed (A1–A15 as far as armlab runs them): {path}")
+    def print_tables():
+        n = robot.n
+        print(f"{robot.name}: {robot.description}")
+        symbolic = dh_rows(robot)
+        numeric = dh_rows(robot, symbolic=False, q=q)
+        has_base_row = symbolic[0][0].startswith("base")
+        if has_base_row:
+            print("\nDH table from Σ_base (first row: the fixed transform Σ_base → Σ_0)")
+            print(format_table(DH_HEADERS, symbolic, "  "))
+        print("\nDH table from Σ_0")
+        print(format_table(DH_HEADERS, symbolic[1:] if has_base_row else symbolic, "  "))
+        values = ", ".join(f"{k} = {format_number(v, 6)}" for k, v in robot.parameters.items())
+        print("\nParameters: " + values)
+        pose = ", ".join(f"{j.name} = {format_number(v)}" for j, v in zip(robot.joints, q, strict=True))
+        print(f"\nAt the pose {pose}:")
+        print(format_table(DH_HEADERS, numeric, "  "))
+        print(f"\nForward kinematics T_{n}^0 = T_e^0 (end effector in Σ_0)")
+        print(format_matrix(forward_kinematics(robot, q, frame="0"), "  "))
+        print(f"\nForward kinematics T_{n}^base = T_base,0 · T_{n}^0")
+        print(format_matrix(forward_kinematics(robot, q, frame="base"), "  "))
+
+    if args.no_report:
+        print_tables()
+        return 0
+    from armlab.viz.report import build_report
+
+    # Printed once the report's worker processes are starting: they import and compile meanwhile.
+    path = build_report(robot, args.out, quick=args.quick, first=print_tables)
+    print(f"\nReport of the whole seed (A1–A15 as far as armlab runs them): {path}")
     return 0

@@ -344,7 +344,7 @@ def _run_all(planned: list[Experiment], progress: Progress, workers: int, main_j
 
 def build_report(robot: str | Robot = "prp", out_dir: str | Path = "report", *, quick: bool = False,
                  show_progress: bool = True, experiments=None, animation: bool = True,
-                 jobs: int | None = None) -> Path:
+                 jobs: int | None = None, first=None) -> Path:
     """Write ``<out_dir>/report.html`` for ``robot`` and return its path.
 
     Parameters
@@ -355,6 +355,8 @@ def build_report(robot: str | Robot = "prp", out_dir: str | Path = "report", *, 
         scenarios of the robot (used by tests)
     animation : add a GIF of one run
     jobs : processes that run the registry's scenarios (default: up to 2, one per core)
+    first : optional callable run here first, once the worker processes are starting (the
+        demo prints its A1 tables meanwhile)
     """
     started = time.perf_counter()
     if not isinstance(robot, Robot):
@@ -367,6 +369,8 @@ def build_report(robot: str | Robot = "prp", out_dir: str | Path = "report", *, 
     progress = Progress(len(planned) + 7, enabled=show_progress)
 
     def here():
+        if first is not None:
+            first()
         progress.step("robot drawings")
         drawn = _drawings(robot)
         progress.advance()
