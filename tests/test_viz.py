@@ -118,6 +118,45 @@ def test_animation_rejects_bad_input(tmp_path):
         animate_robot(robot, t, np.zeros((11, 3)), tmp_path / "a.avi")
 
 
+def test_animation_frames_are_the_frames_of_whole_draws():
+    """Each GIF frame redraws only the moving scene over the still axes drawn once: the picture
+    is the one a whole draw of the figure gives (links and the plane in depth order, clock)."""
+    import matplotlib.pyplot as plt
+
+    from armlab.viz.animation import _frames
+    from armlab.viz.drawing import RobotArtist, set_equal_limits, style_axes
+
+    robot = armlab.load_robot("prp")
+    times = np.array([0.0, 1.0, 2.0])
+    qs = np.array([[0.0, 0.0, 0.05], [0.1, 1.0, 0.1], [0.2, 2.5, 0.15]])
+
+    def scene():
+        fig = plt.figure(figsize=(3.0, 3.0), dpi=60)
+        ax = fig.add_subplot(projection="3d")
+        artist = RobotArtist(ax, robot, plane=Plane((0.0, -0.2, 0.4), (0.0, 1.0, 0.0)))
+        set_equal_limits(ax, *artist.extent(qs))
+        style_axes(ax, "base")
+        ax.set_title("prp")
+        return fig, ax, artist, fig.text(0.03, 0.03, "", family="monospace")
+
+    fig, ax, artist, clock = scene()
+    whole = []
+    for time, q in zip(times, qs, strict=True):
+        artist.update(q)
+        clock.set_text(f"t = {time:6.2f} s")
+        fig.canvas.draw()
+        whole.append(np.array(fig.canvas.buffer_rgba())[..., :3])
+    plt.close(fig)
+    fig, ax, artist, clock = scene()
+    try:
+        frames = [np.asarray(frame.convert("RGB")) for frame in _frames(fig, ax, artist, clock, times, qs)]
+    finally:
+        plt.close(fig)
+    assert len(frames) == 3 and not np.array_equal(frames[0], frames[2])
+    for drawn, expected in zip(frames, whole, strict=True):
+        np.testing.assert_array_equal(drawn, expected)
+
+
 def _synthetic_result(limit=2.0):
     """A hand-made SimulationResult: first-order error decay e(t) = e0 exp(−t/T), a torque
     that saturates at ±limit, a contact force reaching f_d."""
@@ -174,6 +213,40 @@ def test_torque_scope_draws_the_saturation_limits_and_force_reference():
     forces = scopes["forces"]
     assert [p.ylabel for p in forces.panels] == ["fx [N]", "fy [N]", "fz [N]"]  # zero moments left out
     assert [c[0] for c in forces.panels[1].curves] == ["h_e", "f_d"]
+
+
+def test_kept_scope_figures_draw_what_a_fresh_figure_draws():
+    """scope_png reuses one figure per panel count: every scope drawn on it, after scopes with
+    other limits, legends, notes, a diagnosis and colour-cycled curves, is pixel for pixel the
+    scope drawn on a fresh figure."""
+    import io
+
+    import matplotlib.pyplot as plt
+    from PIL import Image
+
+    from armlab.viz.html import figure_png
+    from armlab.viz.scopes import Panel, Scope, render_scope, scope_layout, scope_png
+
+    result = _synthetic_result()
+    t = result.t
+    waves = [("a", t, np.sin(t), dict(lw=1.2)), ("b", t, np.cos(t), dict(lw=1.2))]
+    cycled = Scope("signals", "other logged signals",
+                   [Panel("a [m]", curves=waves), Panel("c", curves=[("c", t, 1e-17 * t, dict(lw=1.2))])])
+    layout = scope_layout(result)
+    scopes = [*layout, cycled, cycled, layout[0]]  # all but "forces" have two panels
+    diagnoses = ["", "diverged at t = 4.2 s", "", "", "", "diverged", ""]
+
+    def pixels(data):
+        return np.asarray(Image.open(io.BytesIO(data)).convert("RGB"))
+
+    for scope, diagnosis in zip(scopes, diagnoses, strict=True):
+        fig = render_scope(scope, title_prefix="synthetic", diagnosis=diagnosis)
+        try:
+            fresh = pixels(figure_png(fig, dpi=80))
+        finally:
+            plt.close(fig)
+        kept = pixels(scope_png(scope, title_prefix="synthetic", diagnosis=diagnosis, dpi=80))
+        np.testing.assert_array_equal(kept, fresh, err_msg=scope.name)
 
 
 def test_decimation_keeps_the_extremes():

@@ -191,12 +191,16 @@ class RobotArtist:
                 gid = f"link:{robot.links[i].name}"
                 self.bodies.append(ax.plot([0], [0], [0], color=colour, lw=5, gid=gid)[0])
             else:
-                body = Poly3DCollection(list(solid.faces), facecolor=colour, edgecolor="0.25",
-                                        linewidths=0.3, alpha=0.55, gid=f"link:{solid.link}")
+                # Added empty, the faces come with update(q0): matplotlib pads faces of unequal
+                # length (a cylinder's caps and sides) with uninitialised memory, which the data
+                # limits of add_collection3d then read, now and then as NaN or inf.
+                body = Poly3DCollection([], facecolor=colour, edgecolor="0.25", linewidths=0.3,
+                                        alpha=0.55, gid=f"link:{solid.link}")
                 ax.add_collection3d(body)
                 self.bodies.append(body)
         self.triads: dict[str, list] = {}
         self.labels: dict[str, object] = {}
+        self.plane = None
         if show_frames:
             for name in frame_poses(robot, q0, frame):
                 self.triads[name] = [ax.plot([0], [0], [0], color=c, lw=2.0, gid=f"frame:{name}:{a}")[0]
@@ -218,8 +222,19 @@ class RobotArtist:
         corners = np.array([plane.point + s * (a * u + b * v) for a, b in signs])
         corners = _transform_points(self.T_view_0, corners)
         self.plane_points = corners
-        self.ax.add_collection3d(Poly3DCollection([corners], facecolor="0.55", edgecolor="0.3",
-                                                  alpha=0.25, gid="environment:plane"))
+        self.plane = Poly3DCollection([corners], facecolor="0.55", edgecolor="0.3", alpha=0.25,
+                                      gid="environment:plane")
+        self.ax.add_collection3d(self.plane)
+
+    def artists(self) -> list:
+        """Every artist of the scene: chain, links, triads with their labels, the plane.
+
+        The plane does not move, but it is drawn in depth order with the links, so it goes
+        with them when an animation redraws only what moves.
+        """
+        triads = [line for lines in self.triads.values() for line in lines]
+        plane = [self.plane] if self.plane is not None else []
+        return [self.chain, *self.bodies, *triads, *self.labels.values(), *plane]
 
     def update(self, q) -> None:
         """Move every artist to configuration ``q`` (n,) [m | rad]."""
