@@ -1,15 +1,18 @@
 """The closed-loop simulator: integrator order, energy, ZOH, saturation, disturbances,
 divergence, determinism, results I/O."""
 
+import dataclasses
+
 import numpy as np
 import pytest
 
 import armlab
-from armlab.control.joint_space import JointPDGravity
+from armlab.control.adaptive import SlotineLi1DoF
+from armlab.control.joint_space import JointInverseDynamics, JointPDGravity
 from armlab.disturbances import ConstantTorque, QuadraticFriction, SinusoidalTorque, StepTorque
-from armlab.references import Constant
+from armlab.references import Constant, Sinusoid
 from armlab.results import SimulationResult
-from armlab.simulation import SimulationDiverged, SimulationError, simulate, simulate_batch
+from armlab.simulation import SimulationDiverged, SimulationError, _own_entry, simulate, simulate_batch
 
 PRP = armlab.load_robot("prp")
 LINK1 = armlab.load_robot("link1")
@@ -124,6 +127,32 @@ def test_same_run_twice_is_bit_identical():
     second = simulate(PRP, controller, **kwargs)
     for name, array in first.groups().items():
         assert array.tobytes() == second.groups()[name].tobytes(), name
+
+
+def _without_entry(controller):
+    """The same controller as an instance of a subclass that redeclares ``law`` without an
+    ``entry``: the loop then calls the law through its address (the path of a user's law)."""
+    cls = type(controller)
+    plain = dataclasses.make_dataclass(f"Plain{cls.__name__}", [], bases=(cls,), frozen=True, eq=False,
+                                       namespace={"law": cls.law})
+    return plain(**{f.name: getattr(controller, f.name) for f in dataclasses.fields(controller)})
+
+
+@pytest.mark.parametrize("method", ["rk4", "adaptive"])
+def test_a_law_entry_gives_the_results_of_the_law_called_by_address(method):
+    cases = [(PRP, pd(PRP, [25, 0.5, 10], [10, 0.08, 3], [0.1, 1.0, 0.05], "desired")),
+             (PRP, JointInverseDynamics.from_poles(PRP.with_link_mass("link4", 0.16),
+                                                   Constant([0.1, 1.0, 0.05]), 5.0)),
+             (LINK1, SlotineLi1DoF(LINK1, Sinusoid([0.0], [0.5], [1.0]), 1.0, 1.0, [1.0, 1.0, 1.0]))]
+    for plant, controller in cases:
+        assert type(controller).entry is not None
+        plain = _without_entry(controller)
+        assert _own_entry(type(plain)) is None
+        kwargs = dict(q0=np.zeros(plant.n), t_final=0.3, dt=1e-3, method=method)
+        with_entry, by_address = simulate(plant, controller, **kwargs), simulate(plant, plain, **kwargs)
+        assert np.abs(with_entry.q[-1] - with_entry.q[0]).max() > 1e-3   # the arm moved
+        for name, array in with_entry.groups().items():
+            assert array.tobytes() == by_address.groups()[name].tobytes(), (type(controller), name)
 
 
 def test_batch_runs_match_single_runs():

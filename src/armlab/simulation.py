@@ -141,6 +141,8 @@ class _Setup:
         except ClosedFormUnavailable as error:
             raise SimulationError(f"dynamics: {error}") from None
         self.law = _compiled(type(controller).law, f"{type(controller).__name__}.law")
+        entry = _own_entry(type(controller))
+        self.entry = None if entry is None else _compiled(entry, f"{type(controller).__name__}.entry")
         self.env_law = _compiled(self.env_law, f"{type(environment).__name__}.law")
         self.rows = self.n_steps // self.log_every + 1
 
@@ -148,7 +150,7 @@ class _Setup:
         """(fn, pp, work) of one run: the loop's addresses, the packed plant (its own copy:
         it holds scratch) and the loop's scratch memory."""
         fn = integrators.addresses(self.law, self.env_law, cparams, self.eparams,
-                                   self.forward_dynamics, self.kinetic_energy)
+                                   self.forward_dynamics, self.kinetic_energy, self.entry)
         work = np.zeros(integrators.work_size(self.n, self.k, self.sig_width))
         return fn, packed_copy(self.plant), work
 
@@ -228,6 +230,15 @@ def _compiled(law, what):
     if not (hasattr(law, "compile") and hasattr(law, "overloads")):
         raise ProtocolError(f"{what}: {law!r} is not a numba.njit function")
     return law
+
+
+def _own_entry(cls):
+    """The ``entry`` declared by the class that declares ``law`` (a subclass that changes the
+    law without its entry must not run its parent's law), or None."""
+    for klass in cls.__mro__:
+        if "law" in vars(klass):
+            return vars(klass).get("entry")
+    return None
 
 
 def _names(given, k: int, stem: str) -> tuple[str, ...]:

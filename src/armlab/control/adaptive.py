@@ -43,6 +43,7 @@ from numba import njit
 from armlab.control.base import Controller, ProtocolError, Signal
 from armlab.control.joint_space import _check_reference, gain_matrix
 from armlab.kernels.dynamics import make_workspace, rnea_into
+from armlab.kernels.integrators import law_entry, law_views
 from armlab.model.robot import Robot, RobotArrays
 from armlab.references import JointReference, reference_into
 
@@ -76,6 +77,13 @@ def slotine_li_1dof_law(t, q, qd, z, h_e, params, tau_out, zdot_out, signals_out
     signals_out[3], signals_out[4], signals_out[5] = Y[0], Y[1], Y[2]
 
 
+@law_entry
+def slotine_li_1dof_entry(cp, law, t, work, n, k, s):
+    """(C4), (C5) of the 1-DoF link as the simulation loop calls it (``Controller.entry``)."""
+    q, qd, z, h_e, tau_out, zdot_out, signals_out = law_views(work, n, k, s)
+    slotine_li_1dof_law(t, q, qd, z, h_e, cp[0], tau_out, zdot_out, signals_out)
+
+
 @dataclass(frozen=True, eq=False)
 class SlotineLi1DoF(Controller):
     """Slotine–Li adaptive control of the seed's 1-DoF link (C4)–(C7), π = [I, F, G].
@@ -95,6 +103,7 @@ class SlotineLi1DoF(Controller):
     gamma: np.ndarray
     initial_estimate: np.ndarray = (0.2, 0.1, 0.0)
     law = slotine_li_1dof_law
+    entry = slotine_li_1dof_entry
 
     def __post_init__(self):
         if self.model.n != 1:

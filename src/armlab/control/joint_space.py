@@ -17,6 +17,7 @@ from armlab.control.base import Controller, ProtocolError, Signal
 from armlab.dynamics import packed_copy
 from armlab.kernels.dynamics import gravity_into, make_workspace
 from armlab.kernels.indirect import call_none, kernel_address
+from armlab.kernels.integrators import law_entry, law_views
 from armlab.model.robot import Robot
 from armlab.references import JointReference, reference_into
 
@@ -80,6 +81,13 @@ def joint_pd_gravity_law(t, q, qd, z, h_e, params, tau_out, zdot_out, signals_ou
         signals_out[2 * n + i] = g[i]
 
 
+@law_entry
+def joint_pd_gravity_entry(cp, law, t, work, n, k, s):
+    """(C1) as the simulation loop calls it (``Controller.entry``)."""
+    q, qd, z, h_e, tau_out, zdot_out, signals_out = law_views(work, n, k, s)
+    joint_pd_gravity_law(t, q, qd, z, h_e, cp[0], tau_out, zdot_out, signals_out)
+
+
 @dataclass(frozen=True, eq=False)
 class JointPDGravity(Controller):
     """Joint-space PD with gravity compensation (seed A6).
@@ -101,6 +109,7 @@ class JointPDGravity(Controller):
     kd: np.ndarray
     compensation: str = "online"
     law = joint_pd_gravity_law
+    entry = joint_pd_gravity_entry
 
     def __post_init__(self):
         n = self.model.n
@@ -143,6 +152,13 @@ def joint_inverse_dynamics_law(t, q, qd, z, h_e, params, tau_out, zdot_out, sign
         signals_out[3 * n + i] = y[i]
 
 
+@law_entry
+def joint_inverse_dynamics_entry(cp, law, t, work, n, k, s):
+    """(C2) as the simulation loop calls it (``Controller.entry``)."""
+    q, qd, z, h_e, tau_out, zdot_out, signals_out = law_views(work, n, k, s)
+    joint_inverse_dynamics_law(t, q, qd, z, h_e, cp[0], tau_out, zdot_out, signals_out)
+
+
 @dataclass(frozen=True, eq=False)
 class JointInverseDynamics(Controller):
     """Joint-space inverse dynamics (computed torque) with a PD outer loop (seed A7).
@@ -172,6 +188,7 @@ class JointInverseDynamics(Controller):
     kd: np.ndarray
     dynamics: str = "auto"
     law = joint_inverse_dynamics_law
+    entry = joint_inverse_dynamics_entry
 
     def __post_init__(self):
         n = self.model.n

@@ -12,12 +12,18 @@ that unboxes its parameters (``rk4_run`` …), and the plant's dynamics can be a
 the signature of ``armlab.kernels.plant.forward_dynamics_packed`` (the general one, or a
 robot's closed form).
 
+A controller class may name its own entry (``Controller.entry``, written next to its law as
+``law(t, *law_views(work, n, k, s), cp[0])``): the law is then compiled inlined into it, and
+one stage passes the loop's scratch array and three sizes instead of seven arrays and the
+parameter tuple by value, ~10% of a PRP run.  Without one, :func:`law_trampoline` calls the
+law through its address.
+
 The plant travels as one packed array ``pp`` (``armlab.kernels.plant``): arguments made of
 many arrays cost compile time in every function that receives them.  ``fn`` (int64 array)
 holds the addresses, in this order (``FN_*``):
 
-    law_trampoline(cp, law, t, q, qd, z, h_e, tau_out, zdot_out, signals_out)
-    law(t, q, qd, z, h_e, cparams, tau_out, zdot_out, signals_out)
+    law_entry(cp, law, t, work, n, k, s)       the law on the scratch views of ``work``
+    law(t, q, qd, z, h_e, cparams, tau_out, zdot_out, signals_out)     (0 with an own entry)
     env_trampoline(ep, env, t, R_0e, p_0e, v_e, h_e_out)
     env(t, R_0e, p_0e, v_e, eparams, h_e_out)
     forward_dynamics(pp, q, qd, tau, h_e, qdd_out) -> 0 ok | 1 bad length | 2 B not PD
@@ -71,7 +77,7 @@ from armlab.kernels.indirect import (
 from armlab.kernels.packed import buffer_view
 from armlab.kernels.plant import forward_dynamics_packed, kinetic_energy_packed, measure_packed
 
-(FN_LAW_TRAMPOLINE, FN_LAW, FN_ENV_TRAMPOLINE, FN_ENV, FN_FORWARD_DYNAMICS, FN_KINETIC_ENERGY,
+(FN_LAW_ENTRY, FN_LAW, FN_ENV_TRAMPOLINE, FN_ENV, FN_FORWARD_DYNAMICS, FN_KINETIC_ENERGY,
  FN_MEASURE, FN_DISTURBANCE) = range(8)
 
 # The loop never allocates, so it runs without reference counting (no atomic increments for
@@ -119,10 +125,6 @@ _I64 = types.int64
 _IVEC = types.int64[::1]
 
 
-@njit(cache=True, _nrt=False)
-def law_trampoline(cp, law, t, q, qd, z, h_e, tau_out, zdot_out, signals_out):
-    """The law at ``law`` called with the parameter tuple at ``cp`` (a CPointer to it)."""
-    call_none(law, (t, q, qd, z, h_e, cp[0], tau_out, zdot_out, signals_out))
 
 
 @njit(cache=True, _nrt=False)
@@ -149,17 +151,26 @@ def _type_key(value):
 _FN: dict = {}
 
 
-def addresses(law, env_law, cparams, eparams, forward_dynamics=None, kinetic_energy=None):
+def addresses(law, env_law, cparams, eparams, forward_dynamics=None, kinetic_energy=None, entry=None):
     """The ``fn`` array for a loop with these parameters (compiles what is missing; remembered
-    per law, environment, plant kernels and parameter types).
+    per law, entry, environment, plant kernels and parameter types).
 
     The argument types are those ``stage`` passes; ``forward_dynamics`` and ``kinetic_energy``
-    default to the general kernels of ``armlab.kernels.plant``."""
-    key = (law, env_law, forward_dynamics, kinetic_energy, _type_key(cparams), _type_key(eparams))
+    default to the general kernels of ``armlab.kernels.plant``; ``entry`` is the controller's
+    own entry (the law inlined, see the module docstring), None for :func:`law_trampoline`."""
+    key = (law, entry, env_law, forward_dynamics, kinetic_energy, _type_key(cparams),
+           _type_key(eparams))
     fn = _FN.get(key)
     if fn is None:
-        fn = _FN[key] = _addresses(law, env_law, cparams, eparams, forward_dynamics, kinetic_energy)
+        fn = _FN[key] = _addresses(law, env_law, cparams, eparams, forward_dynamics, kinetic_energy,
+                                   entry)
     return fn
+
+
+def law_entry_types(cparams_type) -> tuple:
+    """Argument types of a law entry (``law_trampoline`` or a controller's own) for parameters
+    of numba type ``cparams_type``."""
+    return (types.CPointer(cparams_type), _I64, _F64, _VEC, _I64, _I64, _I64)
 
 
 def compile_shared() -> None:
@@ -176,14 +187,16 @@ def compile_shared() -> None:
     kernel_address(no_environment_law, (_F64, _MAT, _VEC, _VEC, free, _VEC), types.none)
 
 
-def _addresses(law, env_law, cparams, eparams, forward_dynamics, kinetic_energy):
+def _addresses(law, env_law, cparams, eparams, forward_dynamics, kinetic_energy, entry):
     vec, mat, f64, none = _VEC, _MAT, _F64, types.none
     ctype, etype = typeof(cparams), typeof(eparams)
     fd = forward_dynamics_packed if forward_dynamics is None else forward_dynamics
     ke = kinetic_energy_packed if kinetic_energy is None else kinetic_energy
+    # An own entry has the law inlined: the law itself is then never called by address.
+    own = entry is not None
     return np.array([
-        kernel_address(law_trampoline, (types.CPointer(ctype), _I64, f64) + (vec,) * 7, none),
-        kernel_address(law, (f64, vec, vec, vec, vec, ctype, vec, vec, vec), none),
+        kernel_address(entry if own else law_trampoline, law_entry_types(ctype), none),
+        0 if own else kernel_address(law, (f64, vec, vec, vec, vec, ctype, vec, vec, vec), none),
         kernel_address(env_trampoline, (types.CPointer(etype), _I64, f64, mat, vec, vec, vec), none),
         kernel_address(env_law, (f64, mat, vec, vec, etype, vec), none),
         kernel_address(fd, (vec,) * 6, _I64),
@@ -236,7 +249,27 @@ def scratch_views(work, n, k, s):
 
 
 @njit(cache=True, _nrt=False, inline="always")
-def stage(fn, t, x, n, pp, cp, ep, dist, has_env, call_law, z_rate, lim, sc, xdot):
+def law_views(work, n, k, s):
+    """(q, qd, z, h_e, tau_out, zdot_out, signals_out): the scratch views of ``work`` a law
+    reads and writes, in the order of its arguments around ``params``."""
+    sc = scratch_views(work, n, k, s)
+    return sc[0], sc[1], sc[2], sc[7], sc[3], sc[8], sc[9]
+
+
+# A controller's own entry (see the module docstring) is compiled with this decorator.
+law_entry = njit(cache=True, _nrt=False)
+
+
+@law_entry
+def law_trampoline(cp, law, t, work, n, k, s):
+    """The entry of a law without its own: the law at ``law`` called with the parameter
+    tuple at ``cp`` (a CPointer to it) on the scratch views of ``work``."""
+    q, qd, z, h_e, tau_out, zdot_out, signals_out = law_views(work, n, k, s)
+    call_none(law, (t, q, qd, z, h_e, cp[0], tau_out, zdot_out, signals_out))
+
+
+@njit(cache=True, _nrt=False, inline="always")
+def stage(fn, t, x, n, pp, cp, ep, dist, has_env, call_law, z_rate, lim, sc, xdot, work):
     """ẋ at (t, x) (S1, S2); returns the forward-dynamics status (0 ok, 2 B not PD)."""
     q, qd, z, tau_c, tau_a, tau_d, tau_p, h_e, zdot, sig, Re, pe, ve, qdd = sc[:14]
     k = z.shape[0]
@@ -249,7 +282,7 @@ def stage(fn, t, x, n, pp, cp, ep, dist, has_env, call_law, z_rate, lim, sc, xdo
         call_none(fn[FN_MEASURE], (pp, q, qd, sc[16], Re, pe, ve))
         call_none(fn[FN_ENV_TRAMPOLINE], (ep, fn[FN_ENV], t, Re, pe, ve, h_e))
     if call_law:
-        call_none(fn[FN_LAW_TRAMPOLINE], (cp, fn[FN_LAW], t, q, qd, z, h_e, tau_c, zdot, sig))
+        call_none(fn[FN_LAW_ENTRY], (cp, fn[FN_LAW], t, work, n, k, sig.shape[0]))
     for i in range(n):
         value = tau_c[i]
         if value > lim[i]:
@@ -354,7 +387,7 @@ def rk4_core(fn, pp, cp, ep, dist, x, work, fset, iset, lim, q_lo, q_hi, out):
             for i in range(m):
                 xt[i] = x[i] + h * K[s - 1, i] if s > 0 else x[i]
             status = stage(fn, t + h, xt, n, pp, cp, ep, dist, has_env,
-                           sample if s == 0 else not sampled, z_rate, lim, sc, K[s])
+                           sample if s == 0 else not sampled, z_rate, lim, sc, K[s], work)
             if s == 0:
                 if j % log_every == 0:
                     log_row(rows, t, x, n, sc, out)
@@ -378,7 +411,7 @@ def rhs_core(fn, t, x, pp, cp, ep, dist, has_env, call_law, z_rate, lim, work, s
     ż of the last call is left in ``work`` (:func:`zdot_slice`)."""
     n = int(pp[0])
     sc = scratch_views(work, n, x.shape[0] - 2 * n, sig_width)
-    return stage(fn, t, x, n, pp, cp, ep, dist, has_env, call_law, z_rate, lim, sc, xdot)
+    return stage(fn, t, x, n, pp, cp, ep, dist, has_env, call_law, z_rate, lim, sc, xdot, work)
 
 
 @loop_kernel
@@ -401,7 +434,7 @@ def log_core(fn, ts, xs, pp, cp, ep, dist, has_env, call_law, lim, work, sig_wid
     sc = scratch_views(work, n, xs.shape[1] - 2 * n, sig_width)
     xdot = sc[15][0]
     for r in range(ts.shape[0]):
-        stage(fn, ts[r], xs[r], n, pp, cp, ep, dist, has_env, call_law, 1.0, lim, sc, xdot)
+        stage(fn, ts[r], xs[r], n, pp, cp, ep, dist, has_env, call_law, 1.0, lim, sc, xdot, work)
         log_row(start + r, ts[r], xs[r], n, sc, out)
 
 
