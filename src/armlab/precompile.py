@@ -22,8 +22,10 @@ here is not an error: it compiles on first use, as it always would.
 from __future__ import annotations
 
 import numpy as np
-from numba import types
+from numba import njit, types
 
+from armlab.control.task_space import log_pose_signals
+from armlab.kernels.task_space import log_task_signals
 from armlab.model.robot import Robot
 
 _VEC = types.float64[::1]
@@ -59,7 +61,6 @@ def dynamics_kernels(robots: list[Robot]) -> None:
 
 def loop_and_task_kernels(robot: Robot) -> None:
     """Compile the simulation loop, kinematics, references and task-space kernels."""
-    from armlab.control.task_space import log_pose_signals
     from armlab.kernels import task_space as task
     from armlab.kernels.integrators import compile_shared
     from armlab.references import Constant, reference_into
@@ -82,6 +83,13 @@ def loop_and_task_kernels(robot: Robot) -> None:
     task.position_error_into(ws.frame, qd, ws)
     task.select_rows_into(rows, ws.JA, ws.A)
     task.task_solve_into(ws.A, ws.rhs, 0.1, ws.G, ws.y)
-    signals = np.zeros(64 + 2 * n)
-    task.log_task_signals(ws, rows, signals, log_pose_signals(ws, signals))
+    _log_task_signals(ws, rows, np.zeros(64 + 2 * n))
+
+
+@njit(cache=True)
+def _log_task_signals(ws, rows, signals):
+    """The task-space laws' logging call, compiled: there the start index that
+    ``log_pose_signals`` returns is typed as a literal, so a call from Python (an int64)
+    compiles another version of ``log_task_signals`` than the one the laws link."""
+    log_task_signals(ws, rows, signals, log_pose_signals(ws, signals))
 
