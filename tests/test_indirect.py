@@ -92,10 +92,12 @@ def test_the_scratch_views_fill_the_scratch_array_exactly(n, k, s):
     assert zdot_start == integrators.zdot_slice(n, k).start   # where the adaptive path reads ż
 
 
-def test_the_log_columns_cover_what_a_row_writes():
-    columns = integrators.log_columns(3, 2, 5)
+@pytest.mark.parametrize("flags, extra", [((1, 1, 1), [3, 3, 6]), ((0, 0, 0), [0, 0, 0]),
+                                          ((1, 0, 1), [3, 0, 6])])
+def test_the_log_columns_cover_what_a_row_writes(flags, extra):
+    columns = integrators.log_columns(3, 2, integrators.log_layout([2, 3], *flags))
     widths = [c.stop - c.start for c in columns.values()]
-    assert widths == [1, 3, 3, 3, 3, 2, 5, 3, 3, 6]
+    assert widths == [1, 3, 3, 3, 3, 2, 5] + extra
     assert list(columns.values())[0].start == 0
     assert all(a.stop == b.start for a, b in zip(list(columns.values()), list(columns.values())[1:]))
 

@@ -155,6 +155,25 @@ def test_a_law_entry_gives_the_results_of_the_law_called_by_address(method):
             assert array.tobytes() == by_address.groups()[name].tobytes(), (type(controller), name)
 
 
+@pytest.mark.parametrize("method", ["rk4", "adaptive"])
+def test_every_signal_is_its_own_contiguous_block_of_the_log(method):
+    # Computed torque logs q_des, q_err, qd_err and y: each must hold its own values (not a
+    # neighbour's columns) and be a C-contiguous (N, w) view, not a copy, of the run's log.
+    reference = Sinusoid([0.1, 1.0, 0.05], [0.05, 0.3, 0.02], [2.0, 1.0, 3.0])
+    controller = JointInverseDynamics.from_poles(PRP.with_link_mass("link4", 0.16), reference, 5.0)
+    result = simulate(PRP, controller, q0=[0, 0, 0], t_final=0.5, dt=1e-3, method=method, log_every=5)
+    sig = result.signals
+    assert list(sig) == ["q_des", "q_err", "qd_err", "y"]
+    np.testing.assert_array_equal(sig["q_err"], sig["q_des"] - result.q)
+    t = result.t[:, None]
+    q_des = np.array([0.1, 1.0, 0.05]) + np.array([0.05, 0.3, 0.02]) * np.sin(np.array([2.0, 1.0, 3.0]) * t)
+    np.testing.assert_allclose(sig["q_des"], q_des, rtol=0, atol=1e-15)
+    for name, array in sig.items():
+        assert array.shape == (len(result.t), 3) and array.flags.c_contiguous, name
+        if method == "rk4":
+            assert np.shares_memory(array, result.q.base if result.q.base is not None else result.q), name
+
+
 def test_batch_runs_match_single_runs():
     controllers = [pd(PRP, [k, 0.5, 10], [10, 0.08, 3], [0.1, 1.0, 0.05]) for k in (10.0, 25.0, 40.0)]
     batch = simulate_batch(PRP, controllers, q0=[0, 0, 0], t_final=0.3, dt=1e-3, log_every=10)

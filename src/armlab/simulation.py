@@ -145,6 +145,9 @@ class _Setup:
         self.entry = None if entry is None else _compiled(entry, f"{type(controller).__name__}.entry")
         self.env_law = _compiled(self.env_law, f"{type(environment).__name__}.law")
         self.rows = self.n_steps // self.log_every + 1
+        self.layout = integrators.log_layout([s.width for s in self.signals],
+                                             cmd=bool(np.any(np.isfinite(self.lim))),
+                                             dist=self.dist[0] > 0, h_e=environment is not None)
 
     def workspace(self, cparams):
         """(fn, pp, work) of one run: the loop's addresses, the packed plant (its own copy:
@@ -158,24 +161,24 @@ class _Setup:
         """The flat log of ``rows`` rows (``integrators.log_views`` gives its blocks).  Every
         row the loop reports is written in full, so it need not be zeroed."""
         rows = self.rows if rows is None else rows
-        columns = integrators.log_columns(self.n, self.k, self.sig_width)
+        columns = integrators.log_columns(self.n, self.k, self.layout)
         return np.empty(rows * columns["h_e"].stop)
 
     def views(self, out):
-        return integrators.log_views(out, self.n, self.k, self.sig_width)
+        return integrators.log_views(out, self.n, self.k, self.layout)
 
     def settings(self):
         fset = np.array([0.0, self.dt, self.ke_max])
         iset = np.array([self.n, self.n_steps, self.every, self.log_every,
-                         int(self.environment is not None), 10, int(self.sampled), self.sig_width],
-                        dtype=np.int64)
+                         int(self.environment is not None), 10, int(self.sampled), self.sig_width,
+                         *self.layout], dtype=np.int64)
         return fset, iset
 
     def result(self, views, rows, method, meta, status="ok", diagnosis=""):
         """The result of the first ``rows`` rows of the log blocks ``views`` (no copies: the
         arrays of the result are views of one log)."""
-        o_t, o_q, o_qd, o_qdd, o_tau, o_z, o_sig, o_cmd, o_dist, o_he = (
-            v[:rows] for v in views.values())
+        o_t, o_q, o_qd, o_qdd, o_tau, o_z, o_cmd, o_dist, o_he = (
+            views[name][:rows] for name in ("t", "q", "qd", "qdd", "tau", "z", "tau_cmd", "tau_dist", "h_e"))
         o_t = o_t[:, 0]
         plant, controller = self.plant, self.controller
         labels = {"q": tuple(plant.joint_names), "qd": tuple(plant.joint_names),
@@ -186,19 +189,19 @@ class _Setup:
                  "qdd": Signal.joint("qdd", plant, "acceleration").units,
                  "tau": Signal.joint("tau", plant, "effort").units,
                  "z": _names(controller.state_units(), self.k, "")}
-        signals, start = {}, 0
-        for signal in self.signals:
-            signals[signal.name] = np.ascontiguousarray(o_sig[:, start:start + signal.width])
+        signals = {}
+        for signal, view in zip(self.signals, views["sig"], strict=True):
+            signals[signal.name] = view[:rows]
             labels[signal.name], units[signal.name] = signal.labels, signal.units
-            start += signal.width
         effort = Signal.joint("tau_cmd", plant, "effort")
-        if np.any(np.isfinite(self.lim)):
+        logged_cmd, logged_dist, logged_he = self.layout[:3]
+        if logged_cmd:
             signals["tau_cmd"] = o_cmd
             labels["tau_cmd"], units["tau_cmd"] = effort.labels, effort.units
-        if self.dist[0] > 0:
+        if logged_dist:
             signals["tau_dist"] = o_dist
             labels["tau_dist"], units["tau_dist"] = effort.labels, effort.units
-        if self.environment is not None:
+        if logged_he:
             signals["h_e"] = o_he
             labels["h_e"] = ("fx", "fy", "fz", "mx", "my", "mz")
             units["h_e"] = ("N",) * 3 + ("N·m",) * 3
@@ -372,15 +375,18 @@ def _run_adaptive(setup, cparams, meta, on_divergence, rtol, atol, integrator):
             status, step, joint, keep = code, first + bad, where, bad
         integrators.log_rows(log_core, fn, grid[first:first + keep],
                              np.ascontiguousarray(xs[:keep]), pp, cparams, setup.eparams,
-                             setup.dist, has_env, not setup.sampled, setup.lim, work, width, out,
-                             rows)
+                             setup.dist, has_env, not setup.sampled, setup.lim, work, setup.layout,
+                             out, rows)
         rows += keep
         if status == 0 and solution.status != 0:
             status, step = 1, first + keep
         if status != 0:
             break
         x = xs[-1].copy()
-    thinned = {name: np.ascontiguousarray(view[0:rows:setup.log_every])
+    def thin(view):
+        return np.ascontiguousarray(view[0:rows:setup.log_every])
+
+    thinned = {name: tuple(map(thin, view)) if name == "sig" else thin(view)
                for name, view in setup.views(out).items()}
     meta = {**(meta or {}), "wall_time": time.perf_counter() - start, "integrator": integrator,
             "rtol": rtol, "atol": atol}

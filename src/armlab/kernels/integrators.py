@@ -97,12 +97,22 @@ def zdot_slice(n: int, k: int) -> slice:
     return slice(start, start + k)
 
 
-def log_columns(n: int, k: int, s: int) -> dict:
+def log_layout(widths, cmd: bool, dist: bool, h_e: bool) -> np.ndarray:
+    """The int64 ``layout`` of :func:`log_row`: whether the commanded torque (saturation), the
+    disturbance and the contact wrench are logged (each only when the run has one: else they
+    are τ, 0 and 0, and a third of a joint-space log), then the signals' ``widths``."""
+    return np.array([int(cmd), int(dist), int(h_e), *widths], dtype=np.int64)
+
+
+def log_columns(n: int, k: int, layout) -> dict:
     """Column ranges of the logged quantities, in order: t, q, qd, qdd, tau, z, sig, tau_cmd,
-    tau_dist, h_e.  In the flat log of R rows, quantity c is the (R, width) block starting at
-    R · c.start (:func:`log_views`)."""
+    tau_dist, h_e (the last three of width 0 when ``layout`` says they are not logged).  In
+    the flat log of R rows, quantity c is the (R, width) block starting at R · c.start
+    (:func:`log_views`)."""
+    cmd, dist, h_e = (int(flag) for flag in layout[:3])
+    s = int(sum(layout[3:]))
     widths = (("t", 1), ("q", n), ("qd", n), ("qdd", n), ("tau", n), ("z", k), ("sig", s),
-              ("tau_cmd", n), ("tau_dist", n), ("h_e", 6))
+              ("tau_cmd", cmd * n), ("tau_dist", dist * n), ("h_e", h_e * 6))
     columns, start = {}, 0
     for name, width in widths:
         columns[name] = slice(start, start + width)
@@ -110,12 +120,22 @@ def log_columns(n: int, k: int, s: int) -> dict:
     return columns
 
 
-def log_views(out: np.ndarray, n: int, k: int, s: int) -> dict:
-    """The (R, width) views of every logged quantity in the flat log ``out``."""
-    columns = log_columns(n, k, s)
+def log_views(out: np.ndarray, n: int, k: int, layout) -> dict:
+    """The (R, width) views of every logged quantity in the flat log ``out`` (``layout`` of
+    :func:`log_layout`); "sig" is the tuple of the signals' (R, w) views: the signal block
+    holds one C-ordered block per signal (:func:`log_row`), so that every signal of a result
+    is a view too."""
+    columns = log_columns(n, k, layout)
+    widths = [int(w) for w in layout[3:]]
     rows = out.shape[0] // columns["h_e"].stop
-    return {name: out[rows * c.start:rows * c.stop].reshape(rows, c.stop - c.start)
-            for name, c in columns.items()}
+    views = {name: out[rows * c.start:rows * c.stop].reshape(rows, c.stop - c.start)
+             for name, c in columns.items()}
+    block, start, signals = views["sig"].reshape(-1), 0, []
+    for width in widths:
+        signals.append(block[rows * start:rows * (start + width)].reshape(rows, width))
+        start += width
+    views["sig"] = tuple(signals)
+    return views
 
 
 _VEC = types.float64[::1]
@@ -325,30 +345,43 @@ def check_state(fn, pp, x, n, q_lo, q_hi, ke_max, check_energy, q, qd):
 
 
 @njit(cache=True, _nrt=False, inline="always")
-def log_row(row, t, x, n, sc, out):
-    """Row ``row`` of the flat log ``out`` (blocks of :func:`log_columns`) from x and stage k₁."""
+def log_row(row, t, x, n, sc, out, layout):
+    """Row ``row`` of the flat log ``out`` (blocks of :func:`log_columns`) from x and stage k₁.
+
+    ``layout`` = [cmd, dist, h_e, w_0, w_1, …] (:func:`log_layout`): whether τ_cmd, τ_d and h_e
+    are logged, then the width of each signal; the signal block holds one (R, w_j) block per
+    signal (:func:`log_views`)."""
     tau_c, tau_a, tau_d, h_e, sig, qdd = sc[3], sc[4], sc[5], sc[7], sc[9], sc[13]
     k = sc[2].shape[0]
     s = sig.shape[0]
-    R = out.shape[0] // (7 + 6 * n + k + s)
+    w_cmd, w_dist, w_he = layout[0] * n, layout[1] * n, layout[2] * 6
+    R = out.shape[0] // (1 + 4 * n + k + s + w_cmd + w_dist + w_he)
     out[row] = t
     q_at, qd_at = R + row * n, R * (1 + n) + row * n
     qdd_at, tau_at = R * (1 + 2 * n) + row * n, R * (1 + 3 * n) + row * n
-    z_at, sig_at = R * (1 + 4 * n) + row * k, R * (1 + 4 * n + k) + row * s
-    cmd_at, dist_at = R * (1 + 4 * n + k + s) + row * n, R * (1 + 5 * n + k + s) + row * n
-    he_at = R * (1 + 6 * n + k + s) + row * 6
+    z_at, sig_at = R * (1 + 4 * n) + row * k, R * (1 + 4 * n + k)
+    cmd_at = R * (1 + 4 * n + k + s) + row * w_cmd
+    dist_at = R * (1 + 4 * n + k + s + w_cmd) + row * w_dist
+    he_at = R * (1 + 4 * n + k + s + w_cmd + w_dist) + row * w_he
     for i in range(n):
         out[q_at + i] = x[i]
         out[qd_at + i] = x[n + i]
         out[qdd_at + i] = qdd[i]
         out[tau_at + i] = tau_a[i]
+    for i in range(w_cmd):
         out[cmd_at + i] = tau_c[i]
+    for i in range(w_dist):
         out[dist_at + i] = tau_d[i]
     for i in range(k):
         out[z_at + i] = x[2 * n + i]
-    for i in range(s):
-        out[sig_at + i] = sig[i]
-    for i in range(6):
+    start = 0
+    for j in range(3, layout.shape[0]):
+        width = layout[j]
+        at = sig_at + R * start + row * width
+        for i in range(width):
+            out[at + i] = sig[start + i]
+        start += width
+    for i in range(w_he):
         out[he_at + i] = h_e[i]
 
 
@@ -358,7 +391,8 @@ def rk4_core(fn, pp, cp, ep, dist, x, work, fset, iset, lim, q_lo, q_hi, out):
 
     cp, ep: stack addresses of the controller's and environment's parameter tuples;
     fset = [t0, dt, ke_max]; iset = [n, n_steps, every, log_every, has_env, energy_every,
-    sampled, signal columns]; x (m,) the initial state (overwritten); ``work`` scratch.
+    sampled, signal columns, then the log's layout (:func:`log_row`)]; x (m,) the initial
+    state (overwritten); ``work`` scratch.
     """
     t0, dt, ke_max = fset[0], fset[1], fset[2]
     n, n_steps, every, log_every = iset[0], iset[1], iset[2], iset[3]
@@ -366,6 +400,7 @@ def rk4_core(fn, pp, cp, ep, dist, x, work, fset, iset, lim, q_lo, q_hi, out):
     m = x.shape[0]
     k = m - 2 * n
     sc = scratch_views(work, n, k, iset[7])
+    layout = iset[8:]
     zdot, xt, K = sc[8], sc[14], sc[15]
     z_rate = 0.0 if sampled else 1.0
     period = every * dt
@@ -390,7 +425,7 @@ def rk4_core(fn, pp, cp, ep, dist, x, work, fset, iset, lim, q_lo, q_hi, out):
                            sample if s == 0 else not sampled, z_rate, lim, sc, K[s], work)
             if s == 0:
                 if j % log_every == 0:
-                    log_row(rows, t, x, n, sc, out)
+                    log_row(rows, t, x, n, sc, out, layout)
                     rows += 1
                 if status != 0:
                     return 4, rows, j, -1
@@ -428,14 +463,15 @@ def check_rows(fn, pp, xs, q_lo, q_hi, ke_max, work):
 
 
 @loop_kernel
-def log_core(fn, ts, xs, pp, cp, ep, dist, has_env, call_law, lim, work, sig_width, out, start):
-    """Stage k₁ at every (ts[r], xs[r]) logged into rows start + r (used after solve_ivp)."""
+def log_core(fn, ts, xs, pp, cp, ep, dist, has_env, call_law, lim, work, layout, out, start):
+    """Stage k₁ at every (ts[r], xs[r]) logged into rows start + r (used after solve_ivp);
+    ``layout`` of the log as in :func:`log_row`."""
     n = int(pp[0])
-    sc = scratch_views(work, n, xs.shape[1] - 2 * n, sig_width)
+    sc = scratch_views(work, n, xs.shape[1] - 2 * n, layout[3:].sum())
     xdot = sc[15][0]
     for r in range(ts.shape[0]):
         stage(fn, ts[r], xs[r], n, pp, cp, ep, dist, has_env, call_law, 1.0, lim, sc, xdot, work)
-        log_row(start + r, ts[r], xs[r], n, sc, out)
+        log_row(start + r, ts[r], xs[r], n, sc, out, layout)
 
 
 _CORE_TYPES = {
@@ -444,7 +480,7 @@ _CORE_TYPES = {
     "rhs": (_IVEC, _F64, _VEC, _VEC, _I64, _I64, _VEC, types.boolean,
             types.boolean, _F64, _VEC, _VEC, _I64, _VEC),
     "log": (_IVEC, _VEC, _MAT, _VEC, _I64, _I64, _VEC, types.boolean,
-            types.boolean, _VEC, _VEC, _I64, _VEC, _I64),
+            types.boolean, _VEC, _VEC, _IVEC, _VEC, _I64),
 }
 _CORES = {"rk4": rk4_core, "rhs": rhs_core, "log": log_core}
 _CORE_RETURNS = {"rk4": types.UniTuple(types.int64, 4), "rhs": types.int64, "log": types.none}
@@ -474,11 +510,11 @@ def rhs(core, fn, t, x, pp, cparams, eparams, dist, has_env, call_law, z_rate, l
 
 
 @loop_kernel
-def log_rows(core, fn, ts, xs, pp, cparams, eparams, dist, has_env, call_law, lim, work, sig_width,
+def log_rows(core, fn, ts, xs, pp, cparams, eparams, dist, has_env, call_law, lim, work, layout,
              out, start):
     """:func:`log_core` on these parameters."""
     call_none(core, (fn, ts, xs, pp, stack_address(cparams), stack_address(eparams), dist, has_env,
-                     call_law, lim, work, sig_width, out, start))
+                     call_law, lim, work, layout, out, start))
 
 
 @njit(cache=True)
