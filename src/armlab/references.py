@@ -65,25 +65,27 @@ def reference_into(ref, t, q_des, qd_des, qdd_des):
             qd_des[i] = 0.0
             qdd_des[i] = 0.0
     elif kind == VIA_POINTS:
+        # ref = [kind, n, count, times (count), values (count × n)], indexed in place: slices
+        # and 2n + 1 divisions cost half of this branch, which runs four times a step.
         count = int(ref[2])
-        times = ref[3:3 + count]
-        values = ref[3 + count:]
-        if t <= times[0]:
-            j, s, sd, sdd, span = 0, 0.0, 0.0, 0.0, 1.0
-        elif t >= times[count - 1]:
-            j, s, sd, sdd, span = count - 2, 1.0, 0.0, 0.0, 1.0
+        if t <= ref[3]:
+            j, s, sd, sdd = 0, 0.0, 0.0, 0.0
+        elif t >= ref[2 + count]:
+            j, s, sd, sdd = count - 2, 1.0, 0.0, 0.0
         else:
             j = 0
-            while t >= times[j + 1]:
+            while t >= ref[4 + j]:
                 j += 1
-            span = times[j + 1] - times[j]
-            s, sd, sdd = quintic((t - times[j]) / span)
+            rate = 1.0 / (ref[4 + j] - ref[3 + j])
+            s, sd, sdd = quintic((t - ref[3 + j]) * rate)
+            sd, sdd = sd * rate, sdd * (rate * rate)        # d/dt and d²/dt² of s(u(t))
+        first = 3 + count + j * n
         for i in range(n):
-            a = values[j * n + i]
-            delta = values[(j + 1) * n + i] - a
+            a = ref[first + i]
+            delta = ref[first + n + i] - a
             q_des[i] = a + delta * s
-            qd_des[i] = delta * sd / span
-            qdd_des[i] = delta * sdd / (span * span)
+            qd_des[i] = delta * sd
+            qdd_des[i] = delta * sdd
     elif kind == SINUSOID:
         for i in range(n):
             center, amp, omega, phase = ref[2 + i], ref[2 + n + i], ref[2 + 2 * n + i], ref[2 + 3 * n + i]
