@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import matplotlib.pyplot as plt
 import numpy as np
 import pytest
 
@@ -225,16 +226,23 @@ def test_kept_scope_figures_draw_what_a_fresh_figure_draws():
     from PIL import Image
 
     from armlab.viz.html import figure_png
-    from armlab.viz.scopes import Panel, Scope, render_scope, scope_layout, scope_png
+    from armlab.viz.scopes import Panel, Scope, Zoom, render_scope, scope_layout, scope_png
 
     result = _synthetic_result()
     t = result.t
     waves = [("a", t, np.sin(t), dict(lw=1.2)), ("b", t, np.cos(t), dict(lw=1.2))]
     cycled = Scope("signals", "other logged signals",
                    [Panel("a [m]", curves=waves), Panel("c", curves=[("c", t, 1e-17 * t, dict(lw=1.2))])])
+    # A log panel, an inset and a caption, which the next scope drawn on the figure must not keep.
+    special = Scope("special", "log axis, inset, caption",
+                    [Panel("σ", curves=[("σ", t, np.exp(-t), dict(lw=1.2))], log=True, note="min"),
+                     Panel("f [N]", curves=[("f", t, 50 * np.exp(-5 * t) - 0.5, dict(lw=1.2))], note="final",
+                           note_at=-0.5, zoom=Zoom(4.0, (-0.6, -0.4), above=True))],
+                    caption="A caption long enough to be wrapped onto a second line under the figure, "
+                            "so that the figure grows by two lines of footnote, the panels keep their size.")
     layout = scope_layout(result)
-    scopes = [*layout, cycled, cycled, layout[0]]  # all but "forces" have two panels
-    diagnoses = ["", "diverged at t = 4.2 s", "", "", "", "diverged", ""]
+    scopes = [*layout, cycled, special, cycled, layout[0]]  # all but "forces" have two panels
+    diagnoses = ["", "diverged at t = 4.2 s", "", "", "", "diverged", "", ""]
 
     def pixels(data):
         return np.asarray(Image.open(io.BytesIO(data)).convert("RGB"))
@@ -260,9 +268,23 @@ def test_decimation_keeps_the_extremes():
     assert yd.max() == 7.0 and np.isclose(yd.min(), y.min())
 
 
+def test_decimation_keeps_the_first_and_last_sample():
+    """A trace that ends flat still reaches the run's end (its last bucket's first min and
+    max are both early in the bucket), and starts at the run's start."""
+    from armlab.viz.scopes import decimate
+
+    t = np.linspace(0.0, 10.0, 10_001)
+    y = np.where(t < 2.0, np.cos(t), np.cos(2.0))  # flat for the last 8 s
+    y[0] = 0.5  # neither the first bucket's min nor its max
+    td, yd = decimate(t, y, max_points=1000)
+    assert td.size <= 1000
+    assert td[0] == 0.0 and td[-1] == 10.0
+    assert yd[0] == 0.5 and yd[-1] == y[-1]
+
+
 def test_decimation_equals_the_bucket_by_bucket_definition():
-    """Vectorised decimation vs a plain loop: per bucket its first min and first max, or both
-    ends of a bucket holding a non-finite value."""
+    """Vectorised decimation vs a plain loop: the first and the last sample, and per bucket
+    its first min and first max, or both ends of a bucket holding a non-finite value."""
     from armlab.viz.scopes import decimate
 
     rng = np.random.default_rng(5)
@@ -272,8 +294,8 @@ def test_decimation_equals_the_bucket_by_bucket_definition():
         y[rng.integers(0, n, 4)] = np.nan
         y[rng.integers(0, n, 2)] = -np.inf
         y[50:90] = 2.0                               # ties: the first index counts
-        edges = np.linspace(0, n, 501).astype(int)
-        keep = set()
+        edges = np.linspace(0, n, 500).astype(int)  # 1000 // 2 − 1 buckets, and the two ends
+        keep = {0, n - 1}
         for a, b in zip(edges[:-1], edges[1:], strict=True):
             chunk = y[a:b]
             if np.all(np.isfinite(chunk)):
@@ -317,3 +339,180 @@ def test_environment_planes_of_the_seed_environments():
     assert np.allclose(environment_plane(wall).normal, [0.0, 1.0, 0.0])
     assert environment_plane(FreeSpace()) is None
     assert environment_plane(None) is None
+
+
+def _task_result(controller: dict, *, t_final=6.0, sigma_min=0.2, transient=0.0):
+    """A hand-made task-space run: p settling on p_des, a pose x in metres and radians, the
+    Jacobian's singular values (the smallest falling to ``sigma_min``), a contact force with a
+    transient of ``transient`` [N] that settles on f_d = −0.5 N along y, the force integral as
+    controller state, the compliant frame p_t of admittance control, and the controller
+    description ``controller`` (its ``type`` and ``frame`` choose the figures' wording)."""
+    from armlab.results import SimulationResult
+
+    t = np.linspace(0.0, t_final, int(1000 * t_final) + 1)
+    decay = np.exp(-t / 0.3)[:, None]
+    p_des = np.tile([0.0, -0.2, 0.4], (t.size, 1))
+    p = p_des - 0.1 * decay
+    x = np.hstack([p, np.tile([1.5, -1.5, 0.0], (t.size, 1))])
+    sv = np.column_stack([np.ones(t.size), np.ones(t.size), sigma_min + (0.2 - sigma_min) * decay[:, 0]])
+    h_e = np.zeros((t.size, 6))
+    h_e[:, 1] = transient * t * np.exp(1.0 - t / 0.3) / 0.3 - 0.5 * (1.0 - decay[:, 0])
+    f_des = np.tile([0.0, -0.5, 0.0], (t.size, 1))
+    z = np.cumsum(f_des - h_e[:, :3], axis=0) * 1e-3
+    joints, xyz, pose = ("d1", "theta2", "d3"), ("x", "y", "z"), ("x", "y", "z", "phi1", "phi2", "phi3")
+    pose_units = ("m",) * 3 + ("rad",) * 3
+    signals = {"x_err": x - np.hstack([p_des, x[:, 3:]]), "x": x, "p": p, "p_des": p_des, "jacobian_sv": sv,
+               "p_t": p + 0.01 * decay, "h_e": h_e, "f_des": f_des}
+    labels = {"q": joints, "qd": joints, "qdd": joints, "tau": joints, "z": ("int_fx", "int_fy", "int_fz"),
+              "x_err": pose, "x": pose, "p": xyz, "p_des": xyz, "jacobian_sv": ("sigma1", "sigma2", "sigma3"),
+              "p_t": xyz, "h_e": ("fx", "fy", "fz", "mx", "my", "mz"), "f_des": xyz}
+    units = {"q": ("m", "rad", "m"), "qd": ("m/s", "rad/s", "m/s"), "qdd": ("m/s²", "rad/s²", "m/s²"),
+             "tau": ("N", "N·m", "N"), "z": ("N·s",) * 3, "x_err": pose_units, "x": pose_units,
+             "p": ("m",) * 3, "p_des": ("m",) * 3, "jacobian_sv": ("",) * 3, "p_t": ("m",) * 3,
+             "h_e": ("N",) * 3 + ("N·m",) * 3, "f_des": ("N",) * 3}
+    if controller.get("type") != "AdmittanceControl":  # the compliant frame is the admittance's
+        del signals["p_t"], labels["p_t"], units["p_t"]
+    q = np.zeros((t.size, 3))
+    tau = np.column_stack([np.zeros(t.size), 1.3 * decay[:, 0], 2.0 + 0 * t])
+    return SimulationResult(t=t, q=q, qd=q, qdd=q, tau=tau, z=z, signals=signals, labels=labels, units=units,
+                            meta={"scenario": "task", "controller": controller, "torque_limit": 20.0})
+
+
+def test_every_panel_spans_the_run_and_traces_reach_its_end():
+    """The time axis is [t[0], t[-1]] on every panel, and every trace reaches t[-1] although
+    the runs end flat (decimation keeps the last sample)."""
+    from armlab.viz.scopes import render_scope, scope_layout
+
+    for result in (_synthetic_result(), _task_result({"type": "OperationalPD", "frame": "base"})):
+        for scope in scope_layout(result):
+            fig = render_scope(scope)
+            for ax in fig.axes[:len(scope.panels)]:
+                assert ax.get_xlim() == (result.t[0], result.t[-1]), scope.name
+                for line in ax.lines:
+                    if len(line.get_xdata()) > 2:  # a trace, not an axhline
+                        assert line.get_xdata()[-1] == result.t[-1], scope.name
+            plt.close(fig)
+
+
+def test_titles_name_only_what_is_drawn():
+    from armlab.viz.scopes import scope_layout
+
+    result = _synthetic_result()
+    assert scope_layout(result)[0].title == "joint positions q and references q_des"
+    task = {s.name: s for s in scope_layout(_task_result({"type": "OperationalPD", "frame": "base"}))}
+    assert task["positions"].title == "joint positions q"  # task-space runs log no q_des
+    assert task["x_err"].title == "errors x_err (desired − actual, components in Σ_0)"
+    assert [c[0] for c in task["p"].panels[1].curves] == ["actual", "desired"]
+
+
+def test_force_control_draws_no_position_reference_and_admittance_its_compliant_frame():
+    """Pure force control's p_des is an internal x_d = 0: not drawn (nor listed elsewhere);
+    admittance control adds the compliant frame p_t and names the error Σ_t relative to Σ_e."""
+    from armlab.viz.scopes import scope_layout
+
+    force = {s.name: s for s in scope_layout(_task_result({"type": "ForceControl"}))}
+    assert [c[0] for c in force["p"].panels[1].curves] == ["actual"]
+    assert "no position reference" in force["p"].title
+    assert all(c[0] != "p_des" for p in force["signals"].panels for c in p.curves)
+    parallel = {s.name: s for s in scope_layout(_task_result({"type": "ParallelForcePosition"}))}
+    assert [c[0] for c in parallel["p"].panels[1].curves] == ["actual", "desired"]
+    admittance = _task_result({"type": "AdmittanceControl", "frame": "desired"})
+    admittance = {s.name: s for s in scope_layout(admittance)}
+    assert [c[0] for c in admittance["p"].panels[0].curves] == ["actual", "desired", "compliant p_t"]
+    assert admittance["p"].panels[0].curves[2][3]["ls"] == ":"
+    assert "Σ_t relative to Σ_e: compliant − actual" in admittance["x_err"].title
+
+
+def test_other_signals_one_panel_per_unit_and_the_state_by_its_component_names():
+    from armlab.viz.scopes import scope_layout
+
+    signals = {s.name: s for s in scope_layout(_task_result({"type": "ForceControl"}))}["signals"]
+    ylabels = [p.ylabel for p in signals.panels]
+    assert ylabels == ["x [m]", "x [rad]", "controller state [N·s]"]
+    assert [c[0] for c in signals.panels[1].curves] == ["φ1", "φ2", "φ3"]
+    assert [c[0] for c in signals.panels[2].curves] == ["∫fx", "∫fy", "∫fz"]
+    # Traces of one panel differ in dash and width, so one drawn over an equal one shows.
+    styles = [(c[3]["ls"], c[3]["lw"]) for c in signals.panels[0].curves]
+    assert len(set(styles)) == 3
+
+
+def test_torque_limit_far_outside_the_data_is_said_not_drawn():
+    from armlab.viz.scopes import scope_layout
+
+    torques = {s.name: s for s in scope_layout(_task_result({"type": "ForceControl"}))}["torques"]
+    for panel in torques.panels:  # |τ| ≤ 2 against ±20: every limit off-scale
+        assert panel.hlines == [] and "±20 N·m limit" in panel.note or "±20 N limit" in panel.note
+    saturated = {s.name: s for s in scope_layout(_synthetic_result(limit=2.0))}["torques"]
+    assert all(len(panel.hlines) == 2 for panel in saturated.panels)
+
+
+def test_singular_values_near_the_warning_threshold_on_a_log_axis():
+    from armlab.viz.scopes import render_scope, scope_layout
+
+    near = {s.name: s for s in scope_layout(_task_result({"type": "OperationalPD", "task": [0, 1, 2]},
+                                                          sigma_min=0.01))}["singular_values"]
+    panel = near.panels[0]
+    assert panel.log and panel.hlines[0][0] == 0.02  # the task controllers' default threshold
+    assert "min σ_min = 0.01" in panel.note
+    fig = render_scope(near)
+    assert fig.axes[0].get_yscale() == "log"
+    plt.close(fig)
+    far = {s.name: s for s in scope_layout(_task_result({"type": "OperationalPD"}))}["singular_values"]
+    assert not far.panels[0].log and far.panels[0].hlines == []
+
+
+def test_force_panel_gets_an_inset_around_f_d_when_a_transient_sets_the_scale():
+    from armlab.viz.scopes import render_scope, scope_layout
+
+    forces = {s.name: s for s in scope_layout(_task_result({"type": "ParallelForcePosition"},
+                                                           transient=70.0))}["forces"]
+    fy = forces.panels[1]
+    assert fy.zoom is not None and fy.zoom.ylim[0] < -0.5 < fy.zoom.ylim[1]
+    assert fy.zoom.start == pytest.approx(4.5, abs=1e-3) and fy.zoom.above
+    fig = render_scope(forces)
+    (inset,) = fig.axes[1].child_axes
+    assert inset.get_xlim() == (fy.zoom.start, 6.0)
+    plt.close(fig)
+    calm = {s.name: s for s in scope_layout(_task_result({"type": "ParallelForcePosition"}))}["forces"]
+    assert calm.panels[1].zoom is None
+
+
+def test_legends_and_notes_sit_right_of_the_panels():
+    """Nothing is drawn over a trace: every legend and note lies right of its panel."""
+    from armlab.viz.scopes import render_scope, scope_layout
+
+    result = _task_result({"type": "AdmittanceControl", "frame": "desired"}, transient=70.0)
+    for scope in scope_layout(result):
+        fig = render_scope(scope)
+        fig.canvas.draw()
+        renderer = fig.canvas.get_renderer()
+        for ax in fig.axes[:len(scope.panels)]:
+            right = ax.get_window_extent(renderer).x1
+            boxes = [t.get_window_extent(renderer) for t in ax.texts]
+            if ax.get_legend() is not None:
+                boxes.append(ax.get_legend().get_window_extent(renderer))
+            assert all(box.x0 > right for box in boxes), scope.name
+            assert all(box.x1 <= fig.bbox.x1 for box in boxes), scope.name
+        plt.close(fig)
+
+
+def test_lyapunov_function_of_a_slotine_li_run_is_drawn_and_never_increases():
+    """The A8 figure of V = ½ I σ² + ½ π̃ᵀ Γ⁻¹ π̃ (C6) from σ, π̂, the true π and Γ."""
+    from armlab.scenarios import load_scenario
+    from armlab.viz.layout import lyapunov_function, scope_layout
+
+    result = load_scenario("a8_case1_sine").run(t_final=3.0)
+    scopes = {s.name: s for s in scope_layout(result)}
+    sigma_panel, V_panel = scopes["lyapunov"].panels
+    assert [c[0] for c in sigma_panel.curves] == ["σ"]
+    assert [c[0] for c in V_panel.curves][0] == "V" and V_panel.note.startswith("V never increases")
+    true = np.array([0.1, 0.05, -0.981])
+    sigma = result.signals["sigma"][:, 0]
+    expected = 0.5 * true[0] * sigma**2 + 0.5 * np.sum((result.z - true) ** 2 / 0.5, axis=1)
+    np.testing.assert_allclose(lyapunov_function(result)["V"], expected, rtol=1e-12)
+    assert np.diff(expected).max() < 1e-9 * expected[0]
+    assert "signals" not in scopes  # σ has its figure; Y is in the estimates
+    mismatch = scopes["estimates"].panels[-1]
+    assert mismatch.note.startswith("RMS, last 0.3 s")
+    assert lyapunov_function(_synthetic_result()) is None
+

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from armlab.viz.scopes import FORCE_REFERENCES, pretty
+from armlab.viz.layout import FORCE_REFERENCES, pretty
 
 TAIL = 0.05
 BAND = 0.02
