@@ -34,10 +34,10 @@ article.experiment h3 { margin: 0 0 6px; font-size: 18px; }
 .figures { display: flex; flex-wrap: wrap; gap: 14px; margin-top: 10px; }
 figure { margin: 0; padding: 6px; background: #fff; border: 1px solid var(--rule); border-radius: 4px; }
 figure img { display: block; max-width: 100%; height: auto; }
-figure.scope img { width: 540px; }
+figure.scope img { width: 570px; }
 figure.drawing img { width: 400px; }
 figure.drawing figcaption { max-width: 400px; }
-figcaption { font-size: 12.5px; color: var(--muted); padding: 4px 2px 0; max-width: 540px; }
+figcaption { font-size: 12.5px; color: var(--muted); padding: 4px 2px 0; max-width: 570px; }
 table { border-collapse: collapse; margin: 8px 0; font-size: 13.5px; }
 th, td { border: 1px solid var(--rule); padding: 3px 9px; text-align: left; vertical-align: top; }
 th { background: #f0f3f7; font-weight: 600; }

@@ -38,7 +38,7 @@ from armlab.viz.animation import animate_robot  # noqa: E402
 from armlab.viz.drawing import Plane, draw_robot  # noqa: E402
 from armlab.viz.metrics import Metric, measure  # noqa: E402
 from armlab.viz.progress import Progress  # noqa: E402
-from armlab.viz.scopes import render_scope, scope_layout  # noqa: E402
+from armlab.viz.scopes import SCOPE_DPI, scope_layout, scope_png  # noqa: E402
 
 ASSIGNMENTS = {
     1: "Kinematics: DH tables, direct and inverse kinematics, Jacobians",
@@ -211,11 +211,9 @@ def _scope_figures(exp: Experiment) -> list[tuple[str, str, bytes]]:
     figures = []
     diagnosis = result.diagnosis if result.status != "ok" else ""
     for scope in scope_layout(result):
-        fig = render_scope(scope, title_prefix=exp.name, diagnosis=diagnosis)
-        try:
-            figures.append((scope.name, f"{exp.name}: {scope.title}", html.figure_png(fig, dpi=80)))
-        finally:
-            plt.close(fig)
+        caption = f"{exp.name}: {scope.title}" + (f". {scope.caption}" if scope.caption else "")
+        data = scope_png(scope, title_prefix=exp.name, diagnosis=diagnosis, dpi=SCOPE_DPI)
+        figures.append((scope.name, caption, data))
     return figures
 
 
