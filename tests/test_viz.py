@@ -516,3 +516,53 @@ def test_lyapunov_function_of_a_slotine_li_run_is_drawn_and_never_increases():
     assert mismatch.note.startswith("RMS, last 0.3 s")
     assert lyapunov_function(_synthetic_result()) is None
 
+
+def test_frame_labels_are_over_the_links_and_apart():
+    """Labels of the A1 drawings are drawn over the link solids and do not overlap each other
+    on the screen (Σ_2 and Σ_3 of the PRP have close origins)."""
+    from matplotlib.transforms import Bbox
+    from mpl_toolkits.mplot3d import proj3d
+
+    from armlab.viz.drawing import LABEL_ZORDER
+
+    robot = armlab.load_robot("prp")
+    for q in ([0.1, np.pi / 3, 0.1], [0.0, 0.0, 0.0]):
+        for frame in ("base", "0"):
+            fig = draw_robot(robot, q, frame=frame)
+            fig.canvas.draw()
+            renderer = fig.canvas.get_renderer()
+            labels = list(fig.robot_artist.labels.values())
+            assert all(label.get_zorder() == LABEL_ZORDER for label in labels)
+            assert all(c.get_zorder() < LABEL_ZORDER for c in fig.axes[0].collections)
+            boxes = []
+            for label in labels:
+                # Text3D measures its size, not its place: the centre is the projected position.
+                size = label.get_window_extent(renderer)
+                x, y, _ = proj3d.proj_transform(*label.get_position_3d(), fig.axes[0].get_proj())
+                cx, cy = fig.axes[0].transData.transform((x, y))
+                width, height = size.width, size.height
+                boxes.append(Bbox.from_bounds(cx - width / 2, cy - height / 2, width, height))
+            plt.close(fig)
+            for i, a in enumerate(boxes):
+                for b in boxes[i + 1:]:
+                    assert not a.overlaps(b), (q, frame)
+
+
+def test_animation_window_and_plane_follow_the_motion():
+    """The animation covers the motion (not a long rest after it), and the environment plane
+    is drawn large enough for the end effector's path along it."""
+    from armlab.viz.animation import motion_window
+    from armlab.viz.drawing import plane_axes, plane_covering
+
+    t = np.linspace(0.0, 6.0, 6001)
+    q = np.column_stack([np.clip(t, 0.0, 1.0), np.zeros_like(t), np.zeros_like(t)])
+    assert motion_window(t, q) == pytest.approx(1.5, abs=0.01)  # done at 1 s, + 0.5 s at rest
+    assert motion_window(t, np.column_stack([t, t, t])) == 6.0  # moves to the end
+    plane = Plane((0.0, -0.2, 0.5), (0.0, 1.0, 0.0), half_size=0.25)
+    path = np.column_stack([np.zeros(50), np.full(50, -0.2), np.linspace(0.5, -0.4, 50)])
+    drawn = plane_covering(plane, path)
+    u, v = plane_axes(drawn)
+    offsets = path - np.asarray(drawn.point)
+    assert np.abs(offsets @ u).max() <= drawn.half_size and np.abs(offsets @ v).max() <= drawn.half_size
+    assert np.allclose(np.asarray(drawn.point)[1], -0.2)  # the same surface
+    assert plane_covering(plane, path[:3]) is plane  # already large enough

@@ -19,8 +19,18 @@ from matplotlib import animation  # noqa: E402
 from PIL import Image  # noqa: E402
 
 from armlab.errors import ArmlabError  # noqa: E402
+from armlab.kinematics import link_frames  # noqa: E402
 from armlab.model.robot import Robot  # noqa: E402
-from armlab.viz.drawing import Plane, RobotArtist, frame_label, set_equal_limits, style_axes  # noqa: E402
+from armlab.viz.drawing import (  # noqa: E402
+    Plane,
+    RobotArtist,
+    frame_label,
+    plane_covering,
+    set_equal_limits,
+    style_axes,
+)
+
+MOTION_SHARE = 0.999  # the arm's motion is over once this share of its joint travel is done
 
 
 class AnimationError(ArmlabError, ValueError):
@@ -31,6 +41,28 @@ def resample(t: np.ndarray, q: np.ndarray, frames: int) -> tuple[np.ndarray, np.
     """Times (frames,) [s] evenly spread over ``t`` and the joint values (frames, n) there."""
     times = np.linspace(t[0], t[-1], frames)
     return times, np.column_stack([np.interp(times, t, q[:, j]) for j in range(q.shape[1])])
+
+
+def joint_spans(robot: Robot) -> np.ndarray:
+    """The range of each joint (n,) [m | rad], 1 where it is unlimited: the scale of its travel."""
+    return np.array([(high - low) if np.isfinite(high - low) else 1.0 for low, high in
+                     (joint.limits for joint in robot.joints)])
+
+
+def motion_window(t, q, spans=None, *, margin: float = 0.25, least: float = 0.5) -> float:
+    """The time [s] up to which a run is worth animating: when :data:`MOTION_SHARE` of the
+    joints' travel (Σ_i |Δq_i| / span_i, ``spans`` (n,) default 1) is done, plus ``margin`` of
+    the time to get there and at least ``least`` [s] to show the arm at rest; ``t[-1]`` for a
+    run that moves to its end (or not at all)."""
+    t = np.asarray(t, dtype=float)
+    q = np.asarray(q, dtype=float)
+    spans = np.ones(q.shape[1]) if spans is None else np.asarray(spans, dtype=float)
+    steps = np.sum(np.abs(np.diff(q, axis=0)) / spans, axis=1)
+    travel = np.concatenate([[0.0], np.cumsum(np.where(np.isfinite(steps), steps, 0.0))])
+    if travel[-1] <= 0.0:
+        return float(t[-1])
+    done = float(t[min(int(np.searchsorted(travel, MOTION_SHARE * travel[-1])), t.size - 1)])
+    return float(min(t[-1], done + max(margin * (done - t[0]), least)))
 
 
 def animate_robot(robot: Robot, t, q, path, *, frame: str = "base", plane: Plane | None = None,
@@ -45,7 +77,8 @@ def animate_robot(robot: Robot, t, q, path, *, frame: str = "base", plane: Plane
     frame : {"base", "0"}
         The frame the scene is drawn in.
     plane : Plane, optional
-        The environment surface (in Σ_0) to draw, e.g. the wall of an interaction scenario.
+        The environment surface (in Σ_0) to draw, e.g. the wall of an interaction scenario;
+        drawn large enough to hold the end effector's path on it.
     fps, max_frames : int
         Playback rate and the number of frames the run is resampled to; the animation plays
         the whole run in max_frames / fps seconds (not in real time for long runs).
@@ -78,13 +111,17 @@ def animate_robot(robot: Robot, t, q, path, *, frame: str = "base", plane: Plane
         raise AnimationError(f"{path}: unknown animation format {suffix!r} (use .gif or .mp4)")
 
     times, qs = resample(t, q, min(max_frames, t.size))
+    if plane is not None:
+        # The surface as large as the end effector's path on it: it may slide along a wall.
+        tip = np.array([link_frames(robot, q_frame, frame="0")[-1][:3, 3] for q_frame in qs])
+        plane = plane_covering(plane, tip)
     fig = plt.figure(figsize=(4.8, 4.6), dpi=dpi)
     fig.subplots_adjust(left=0.0, right=0.96, bottom=0.02, top=0.9)
     ax = fig.add_subplot(projection="3d")
+    ax.view_init(elev=view[0], azim=view[1])  # first: the frame labels are placed for the view
     artist = RobotArtist(ax, robot, frame=frame, show_frames=show_frames, plane=plane)
     set_equal_limits(ax, *artist.extent(qs))
     style_axes(ax, frame)
-    ax.view_init(elev=view[0], azim=view[1])
     ax.set_title(title or f"{robot.name} in {frame_label(frame)}", fontsize=10)
     clock = fig.text(0.03, 0.03, "", fontsize=9, family="monospace")
 

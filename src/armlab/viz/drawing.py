@@ -33,6 +33,13 @@ from armlab.spatial import inverse_transform, rpy_matrix  # noqa: E402
 AXIS_COLOURS = ("#d62728", "#2ca02c", "#1f5fd6")  # x red, y green, z blue
 LINK_COLOURS = ("#f0a030", "#8fb8de", "#9ad28a", "#d9a3d6", "#e8d36a", "#a0d8d0", "#f4a6a6")
 FRAMES = ("base", "0")
+LABEL_ZORDER = 1000  # frame labels over every link solid
+# Frame labels: candidate offsets from the origin on the screen (right, up), in triad
+# lengths: below it first, then above, then to the sides, further out; the estimated width of
+# one "Σ_i" and the height of a label, in triad lengths.
+LABEL_OFFSETS = ((0.0, -0.5), (0.0, 0.55), (0.9, -0.5), (-0.9, -0.5), (0.9, 0.55), (-0.9, 0.55),
+                 (0.0, -1.1), (0.0, 1.15), (1.4, 0.0), (-1.4, 0.0))
+LABEL_WIDTH, LABEL_HEIGHT = 0.8, 0.6
 
 
 @dataclass(frozen=True)
@@ -53,6 +60,31 @@ class Solid:
 
     link: str
     faces: tuple[np.ndarray, ...]
+
+
+def plane_axes(plane: Plane) -> tuple[np.ndarray, np.ndarray]:
+    """Two orthonormal directions (3,) spanning ``plane``: the sides of its drawn square."""
+    normal = np.asarray(plane.normal, dtype=float)
+    normal = normal / np.linalg.norm(normal)
+    helper = np.array([1.0, 0.0, 0.0]) if abs(normal[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    u = np.cross(normal, helper)
+    u /= np.linalg.norm(u)
+    return u, np.cross(normal, u)
+
+
+def plane_covering(plane: Plane, points, margin: float = 0.1) -> Plane:
+    """``plane``, or where it does not hold ``points`` (k, 3) [m, in Σ_0] projected onto it
+    with ``margin`` [m] around them (an end-effector path that slides along a wall), the same
+    surface drawn as the square around them."""
+    points = np.atleast_2d(np.asarray(points, dtype=float))
+    u, v = plane_axes(plane)
+    point = np.asarray(plane.point, dtype=float)
+    a, b = (points - point) @ u, (points - point) @ v
+    if max(np.abs(a).max(), np.abs(b).max()) + margin <= plane.half_size:
+        return plane
+    centre_a, centre_b = (a.max() + a.min()) / 2.0, (b.max() + b.min()) / 2.0
+    half = max(np.ptp(a), np.ptp(b)) / 2.0 + margin
+    return Plane(tuple(point + centre_a * u + centre_b * v), tuple(plane.normal), float(half))
 
 
 def frame_names(robot: Robot) -> list[str]:
@@ -157,6 +189,43 @@ def characteristic_length(robot: Robot) -> float:
     return max(0.1, float(np.ptp(origins, axis=0).max()), float(np.linalg.norm(origins[-1])))
 
 
+def _screen_axes(elev: float, azim: float) -> tuple[np.ndarray, np.ndarray]:
+    """The unit vectors of the scene that point right and up on the screen for a view from
+    elevation ``elev`` and azimuth ``azim`` [deg] (matplotlib's view_init angles)."""
+    e, a = np.radians(elev), np.radians(azim)
+    right = np.array([-np.sin(a), np.cos(a), 0.0])
+    up = np.array([-np.sin(e) * np.cos(a), -np.sin(e) * np.sin(a), np.cos(e)])
+    return right, up
+
+
+def label_positions(poses: dict[str, np.ndarray], axis_length: float, elev: float,
+                    azim: float) -> dict[str, np.ndarray]:
+    """Where the frame labels go (3-D points [m]), one per frame of ``poses``.
+
+    Each label sits next to its frame's origin, at the first of :data:`LABEL_OFFSETS` (screen
+    directions in triad lengths) where it does not overlap a label placed before, so frames
+    whose origins are close on the screen (Σ_2 and Σ_3 of the PRP) get labels apart.  Sizes are
+    estimated from the text length in triad lengths, which sets the scene's scale.
+    """
+    right, up = _screen_axes(elev, azim)
+    placed: list[tuple[float, float, float]] = []  # (x, y, half width) on the screen [m]
+    out = {}
+    for name, pose in poses.items():
+        origin = pose[:3, 3]
+        parts = name.split("=")
+        half = 0.5 * axis_length * (LABEL_WIDTH * sum(0.75 + 0.25 * len(p) for p in parts)
+                                    + 0.5 * (len(parts) - 1))
+        height = LABEL_HEIGHT * axis_length
+        x0, y0 = float(origin @ right), float(origin @ up)
+        for dx, dy in LABEL_OFFSETS:
+            x, y = x0 + dx * axis_length, y0 + dy * axis_length
+            if all(abs(x - px) >= half + ph or abs(y - py) >= height for px, py, ph in placed):
+                break
+        placed.append((x, y, half))
+        out[name] = origin + (x - x0) * right + (y - y0) * up
+    return out
+
+
 class RobotArtist:
     """The matplotlib artists of one robot on a 3-D axes, movable with :meth:`update`.
 
@@ -205,18 +274,18 @@ class RobotArtist:
             for name in frame_poses(robot, q0, frame):
                 self.triads[name] = [ax.plot([0], [0], [0], color=c, lw=2.0, gid=f"frame:{name}:{a}")[0]
                                      for c, a in zip(AXIS_COLOURS, "xyz", strict=True)]
-                self.labels[name] = ax.text(0, 0, 0, frame_label(name), fontsize=9, color="0.1")
+                # Over the links (mplot3d gives the solids z-orders by depth, from a few up),
+                # on a white box so a label stays legible where it crosses a link or an axis.
+                self.labels[name] = ax.text(0, 0, 0, frame_label(name), fontsize=9, color="0.1", ha="center",
+                                            va="center", zorder=LABEL_ZORDER,
+                                            bbox=dict(boxstyle="round,pad=0.15", fc="white", ec="0.75",
+                                                      lw=0.5, alpha=0.85))
         if plane is not None:
             self._draw_plane(plane)
         self.update(q0)
 
     def _draw_plane(self, plane: Plane):
-        normal = np.asarray(plane.normal, dtype=float)
-        normal /= np.linalg.norm(normal)
-        helper = np.array([1.0, 0.0, 0.0]) if abs(normal[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
-        u = np.cross(normal, helper)
-        u /= np.linalg.norm(u)
-        v = np.cross(normal, u)
+        u, v = plane_axes(plane)
         s = plane.half_size
         signs = ((-1, -1), (1, -1), (1, 1), (-1, 1))
         corners = np.array([plane.point + s * (a * u + b * v) for a, b in signs])
@@ -253,15 +322,14 @@ class RobotArtist:
                 self.link_vertices[solid.link] = np.vstack(faces)
         if self.show_frames:
             L = self.axis_length
-            for name, pose in frame_poses(self.robot, q, self.frame).items():
+            poses = frame_poses(self.robot, q, self.frame)
+            for name, pose in poses.items():
                 origin = pose[:3, 3]
                 for k, line in enumerate(self.triads[name]):
                     tip = origin + L * pose[:3, k]
                     line.set_data_3d([origin[0], tip[0]], [origin[1], tip[1]], [origin[2], tip[2]])
-                # Labels sit off the origin along the triad's diagonal so that they do not
-                # cover the axes of a frame drawn at the same place.
-                offset = 0.35 * L * (pose[:3, 0] + pose[:3, 1] + pose[:3, 2])
-                self.labels[name].set_position_3d(origin - offset)
+            for name, position in label_positions(poses, L, self.ax.elev, self.ax.azim).items():
+                self.labels[name].set_position_3d(position)
 
     def extent(self, qs) -> tuple[np.ndarray, np.ndarray]:
         """Lower and upper corners (3,) [m] of everything drawn over the configurations ``qs``."""
@@ -315,11 +383,11 @@ def draw_robot(robot: Robot, q, *, frame: str = "base", ax=None, plane: Plane | 
         ax = fig.add_subplot(projection="3d")
         fig.subplots_adjust(left=0.0, right=0.96, bottom=0.02, top=0.9)
     fig = ax.figure
+    ax.view_init(elev=view[0], azim=view[1])  # first: the frame labels are placed for the view
     artist = RobotArtist(ax, robot, frame=frame, show_frames=show_frames, plane=plane)
     artist.update(q)
     set_equal_limits(ax, *artist.extent(q))
     style_axes(ax, frame)
-    ax.view_init(elev=view[0], azim=view[1])
     values = ", ".join(f"{j.name} = {v:.3g} {'m' if j.kind == 'prismatic' else 'rad'}"
                        for j, v in zip(robot.joints, q, strict=True))
     ax.set_title(title or f"{robot.name} in {frame_label(frame)}\n{values}", fontsize=10)

@@ -34,7 +34,7 @@ from armlab.errors import ArmlabError  # noqa: E402
 from armlab.model.robot import Robot  # noqa: E402
 from armlab.robots import load_robot  # noqa: E402
 from armlab.viz import html  # noqa: E402
-from armlab.viz.animation import animate_robot  # noqa: E402
+from armlab.viz.animation import animate_robot, joint_spans, motion_window  # noqa: E402
 from armlab.viz.drawing import Plane, draw_robot  # noqa: E402
 from armlab.viz.metrics import Metric, measure  # noqa: E402
 from armlab.viz.progress import Progress  # noqa: E402
@@ -58,6 +58,7 @@ ASSIGNMENTS = {
     15: "Parallel force/position control",
 }
 SEED_POSES = {"prp": np.array([0.1, np.pi / 3, 0.1])}  # the seed's A1 pose
+DRAWING_DPI = 130  # the A1 robot drawings (frame labels legible at the page's 400 px)
 
 
 class ReportError(ArmlabError, ValueError):
@@ -123,7 +124,7 @@ def _drawings(robot: Robot) -> str:
     for frame, q, tag in (("base", pose, "pose"), ("0", pose, "pose"), ("base", np.zeros(robot.n), "rest")):
         fig = draw_robot(robot, q, frame=frame)
         try:
-            data = html.figure_png(fig, dpi=80, tight=True)
+            data = html.figure_png(fig, dpi=DRAWING_DPI, tight=True)
         finally:
             plt.close(fig)
         where = "Σ_base" if frame == "base" else "Σ_0"
@@ -455,9 +456,7 @@ def _drawings_block(drawings: str) -> str:
 
 def _motion(exp: Experiment) -> float:
     """Joint travel relative to each joint's range: the run where the arm moves most."""
-    spans = np.array([(hi - lo) if np.isfinite(hi - lo) else 1.0 for lo, hi in
-                      (j.limits for j in exp.robot.joints)])
-    return float(np.sum(np.ptp(exp.result.q, axis=0) / spans))
+    return float(np.sum(np.ptp(exp.result.q, axis=0) / joint_spans(exp.robot)))
 
 
 def animation_subject(planned: list[Experiment], robot_name: str, *, final: bool = True):
@@ -489,10 +488,17 @@ def _animation(exp: Experiment | None, out_dir: Path) -> str:
     """The report's animation section for the run ``exp`` ('' for None)."""
     if exp is None:
         return ""
-    path = animate_robot(exp.robot, exp.result.t, exp.result.q, out_dir / f"{exp.name}.gif",
+    t, q = exp.result.t, exp.result.q
+    # The frames where the arm moves: a run that comes to rest early would fill most of the
+    # GIF with one picture.
+    stop = motion_window(t, q, joint_spans(exp.robot))
+    moving = t <= stop
+    path = animate_robot(exp.robot, t[moving], q[moving], out_dir / f"{exp.name}.gif",
                          plane=exp.plane, max_frames=60, fps=12, dpi=80, title=exp.name)
     uri = html.gif_data_uri(path.read_bytes())
-    caption = f"Animation of {exp.name} ({exp.title}), resampled to 60 frames."
+    span = (f"its first {stop - t[0]:.3g} s (the arm is at rest for the remaining {t[-1] - stop:.3g} s)"
+            if stop < t[-1] else f"the whole run ({t[-1] - t[0]:.3g} s)")
+    caption = f"Animation of {exp.name} ({exp.title}): {span}, resampled to 60 frames."
     return ('<section class="assignment" id="animation" data-assignment="animation"><h2>Animation</h2>'
             f'<div class="figures">{html.figure(uri, caption, kind="drawing", ident="fig-animation")}</div>'
             "</section>")
