@@ -1,7 +1,9 @@
 """Joint-space dynamics: armlab's compiled kernels vs Pinocchio, side by side in one run.
 
 * **Per call from Python, one state**: ``armlab.inverse_dynamics`` / ``inertia_matrix`` /
-  ``forward_dynamics`` vs ``pinocchio.rnea`` / ``crba`` / ``aba``.
+  ``forward_dynamics`` vs ``pinocchio.rnea`` / ``crba`` / ``aba``; armlab twice, with its
+  general kernels (the default) and with the robot's generated module
+  (``dynamics="closed_form"``, ``armlab.closed_form``), each checked against Pinocchio first.
 * **Batched**: many states in one call — armlab's kernels in a compiled loop (what a
   simulation does) vs Pinocchio called in a Python loop (its Python API has no batch call).
 * **PRP inverse dynamics inside compiled code**: nanoseconds per evaluation in a compiled loop
@@ -104,12 +106,18 @@ def _states(robot, count, seed=0):
         rng.uniform(-1, 1, (count, robot.n))
 
 
-def _single_pairs(pin, robot, model, data, q, qd, qdd, qp, tau):
+def _single_calls(pin, robot, model, data, q, qd, qdd, qp, tau):
+    """Per algorithm: (armlab's general kernels, armlab's generated module, Pinocchio)."""
+    cf = "closed_form"
     return {
         "rnea": (lambda: armlab.inverse_dynamics(robot, q, qd, qdd),
+                 lambda: armlab.inverse_dynamics(robot, q, qd, qdd, dynamics=cf),
                  lambda: pin.rnea(model, data, qp, qd, qdd)),
-        "crba": (lambda: armlab.inertia_matrix(robot, q), lambda: pin.crba(model, data, qp)),
+        "crba": (lambda: armlab.inertia_matrix(robot, q),
+                 lambda: armlab.inertia_matrix(robot, q, dynamics=cf),
+                 lambda: pin.crba(model, data, qp)),
         "aba": (lambda: armlab.forward_dynamics(robot, q, qd, tau),
+                lambda: armlab.forward_dynamics(robot, q, qd, tau, dynamics=cf),
                 lambda: pin.aba(model, data, qp, qd, tau)),
     }
 
@@ -157,9 +165,15 @@ def per_call_rows():
             continue
         qp = to_pin(q)
         tau = armlab.inverse_dynamics(robot, q, qd, qdd)
-        for algorithm, (ours, theirs) in _single_pairs(pin, robot, model, data, q, qd, qdd, qp, tau).items():
-            a, p = _best(ours, 20000), _best(theirs, 20000)
-            rows.append((name, algorithm, a * 1e6, p * 1e6, a / p))
+        calls = _single_calls(pin, robot, model, data, q, qd, qdd, qp, tau)
+        for algorithm, (general, generated, theirs) in calls.items():
+            # Each variant's result is checked against Pinocchio's before it is timed.
+            ours, cf, reference = general(), generated(), theirs()
+            for value in (ours, cf):
+                if not np.allclose(value, reference, rtol=1e-9, atol=1e-9):
+                    raise AssertionError(f"{name} {algorithm}: armlab and Pinocchio disagree")
+            a, c, p = _best(general, 20000), _best(generated, 20000), _best(theirs, 20000)
+            rows.append((name, algorithm, a * 1e6, c * 1e6, p * 1e6, a / p, c / p))
     return rows
 
 
@@ -318,10 +332,12 @@ def compile_times():
 def main():
     print("== Dynamics: armlab vs Pinocchio (rigid-body model, thread CPU time, best of "
           f"{REPEATS}) ==")
-    print("\nPer call from Python, one state [µs]")
-    print(f"{'robot':10s} {'algorithm':9s} {'armlab':>9s} {'pinocchio':>10s} {'ratio':>7s}")
-    for name, algorithm, a, p, r in per_call_rows():
-        print(f"{name:10s} {algorithm:9s} {a:9.2f} {p:10.2f} {r:7.2f}")
+    print("\nPer call from Python, one state [µs]: armlab's general kernels (default) and its "
+          "generated module (dynamics='closed_form')")
+    print(f"{'robot':10s} {'algorithm':9s} {'armlab':>9s} {'closed form':>12s} {'pinocchio':>10s} "
+          f"{'ratio':>7s} {'ratio cf':>9s}")
+    for name, algorithm, a, c, p, r, rc in per_call_rows():
+        print(f"{name:10s} {algorithm:9s} {a:9.2f} {c:12.2f} {p:10.2f} {r:7.2f} {rc:9.2f}")
     print(f"(floor: a compiled call with the wrapper's five array arguments doing nothing, "
           f"fresh output included: {call_floor_us():.2f} µs)")
     print("\nBatched, 20000 states per call [ns per state] "

@@ -142,3 +142,70 @@ def test_generated_kernels_refuse_wrong_lengths():
     out = np.zeros(3)
     assert module.forward_dynamics(packed, np.zeros(2), np.zeros(3), np.zeros(3), np.zeros(6), out) == 1
     assert np.isnan(module.kinetic_energy(packed, np.zeros(3), np.zeros(4)))
+    assert module.mass_matrix(packed, np.zeros(3), np.zeros((3, 2))) == 1
+    assert module.checked_inverse_dynamics(packed, np.zeros(3), np.zeros(3), np.zeros(4), out) == 1
+
+
+@pytest.mark.parametrize("name", SMALL + ["puma560"])
+def test_the_public_functions_through_the_generated_module_equal_the_kernels(name):
+    robot = armlab.load_robot(name)
+    rng = np.random.default_rng(11)
+    n = robot.n
+    for trial in range(10):
+        q = rng.uniform(-1.0, 1.0, n)
+        qd, qdd, tau = rng.normal(size=(3, n))
+        h_e = rng.normal(size=6)
+        expected = {"tau": armlab.inverse_dynamics(robot, q, qd, qdd), "B": armlab.inertia_matrix(robot, q),
+                    "qdd": armlab.forward_dynamics(robot, q, qd, tau),
+                    "qdd_h": armlab.forward_dynamics(robot, q, qd, tau, h_e=h_e)}
+        for dynamics in ("closed_form", "auto"):
+            # Lists take the converting path of the entries, arrays the direct one.
+            args = (q.tolist(), qd.tolist()) if trial % 2 else (q, qd)
+            got = {"tau": armlab.inverse_dynamics(robot, *args, qdd, dynamics=dynamics),
+                   "B": armlab.inertia_matrix(robot, args[0], dynamics=dynamics),
+                   "qdd": armlab.forward_dynamics(robot, *args, tau, dynamics=dynamics),
+                   "qdd_h": armlab.forward_dynamics(robot, *args, tau, h_e=h_e, dynamics=dynamics)}
+            for key, value in expected.items():
+                scale = max(1.0, np.abs(value).max())
+                np.testing.assert_allclose(got[key], value, rtol=1e-10, atol=1e-10 * scale,
+                                           err_msg=f"{name} {dynamics} {key}")
+    # Calls the module does not serve (a wrench, no gravity) run the kernels, bit for bit.
+    h_e = rng.normal(size=6)
+    for kwargs in ({"h_e": h_e}, {"gravity": False}):
+        np.testing.assert_array_equal(armlab.inverse_dynamics(robot, q, qd, qdd, dynamics="closed_form",
+                                                              **kwargs),
+                                      armlab.inverse_dynamics(robot, q, qd, qdd, **kwargs))
+
+
+def test_the_public_functions_name_bad_input_with_the_generated_module():
+    robot = armlab.load_robot("prp")
+    z = np.zeros(3)
+    with pytest.raises(ValueError, match="qdd"):
+        armlab.inverse_dynamics(robot, z, z, np.zeros(2), dynamics="closed_form")
+    with pytest.raises(ValueError, match="q must"):
+        armlab.inertia_matrix(robot, np.zeros(4), dynamics="closed_form")
+    with pytest.raises(ValueError, match="tau"):
+        armlab.forward_dynamics(robot, z, z, "abc", dynamics="closed_form")
+    with pytest.raises(ValueError, match="h_e"):
+        armlab.forward_dynamics(robot, z, z, z, h_e=np.zeros(5), dynamics="closed_form")
+    with pytest.raises(ValueError, match="dynamics: 'fast' is not one of"):
+        armlab.inertia_matrix(robot, z, dynamics="fast")
+
+
+def test_a_robot_keeps_its_generated_entries_out_of_pickles():
+    robot = armlab.load_robot("prp")
+    q = np.array([0.1, 0.7, 0.2])
+    B = armlab.inertia_matrix(robot, q, dynamics="closed_form")
+    copy = pickle.loads(pickle.dumps(robot))
+    assert copy.__dict__.get("_dynamics_entries_closed_form") is None   # found again on use
+    np.testing.assert_array_equal(armlab.inertia_matrix(copy, q, dynamics="closed_form"), B)
+
+
+def test_auto_beyond_its_size_calls_the_kernels(monkeypatch):
+    from armlab import closed_form
+
+    puma = armlab.load_robot("puma560")
+    monkeypatch.setattr(closed_form, "AUTO_MAX_JOINTS", puma.n - 1)
+    q, qd, tau = np.full(6, 0.3), np.full(6, -0.2), np.ones(6)
+    np.testing.assert_array_equal(armlab.forward_dynamics(puma, q, qd, tau, dynamics="auto"),
+                                  armlab.forward_dynamics(puma, q, qd, tau))

@@ -9,6 +9,11 @@ kernels of ``armlab.kernels.plant``:
     inverse_dynamics(packed, q, qd, qdd, tau_out)                  τ of (D1), h_e = 0
     forward_dynamics(packed, q, qd, tau, h_e, qdd_out) -> status    q̈ of (D1), (D5)
     kinetic_energy(packed, q, qd) -> T                              (D6)
+    mass_matrix(packed, q, B_out) -> status                         B(q) (D2)
+    checked_inverse_dynamics(packed, q, qd, qdd, tau_out) -> status   (for calls from Python)
+
+and to Python: ``armlab.inverse_dynamics``, ``inertia_matrix`` and ``forward_dynamics`` take
+the same ``dynamics=`` choice (their default is the numeric kernels).
 
 Two generators write such a module:
 
@@ -182,6 +187,18 @@ def _verify(robot: Robot, module) -> str:
         energy = 0.5 * float(qd @ momentum)
         if not np.isclose(module.kinetic_energy(packed, q, qd), energy, rtol=1e-9, atol=1e-12):
             return f"kinetic energy differs from the numeric kernels at q = {q.tolist()}"
+        # Column j of B is the RNEA at q̇ = 0, q̈ = e_j without gravity.
+        columns = np.column_stack([inverse_dynamics(robot, q, np.zeros(n), e, gravity=False)
+                                   for e in np.eye(n)])
+        B = np.zeros((n, n))
+        if (module.mass_matrix(packed, q, B) != 0
+                or not np.allclose(B, columns, rtol=1e-9, atol=1e-9 * max(1.0, np.abs(columns).max()))):
+            return f"inertia matrix differs from the numeric kernels at q = {q.tolist()}"
+        direct, checked = np.zeros(n), np.zeros(n)
+        module.inverse_dynamics(packed, q, qd, qdd, direct)
+        if (module.checked_inverse_dynamics(packed, q, qd, qdd, checked) != 0
+                or not np.array_equal(checked, direct)):
+            return "the checked inverse dynamics differ from the module's inverse dynamics"
     return ""
 
 
@@ -225,7 +242,9 @@ def closed_form_status(robot: Robot) -> str:
     return known[1] if known is not None and not known[0] else ""
 
 
-def _choose(robot: Robot, dynamics: str, field: str):
+def chosen_module(robot: Robot, dynamics: str, field: str = "dynamics"):
+    """The generated module ``dynamics`` chooses for ``robot``, or None for the numeric kernels
+    (``ClosedFormUnavailable`` for an unknown choice, or for "closed_form" without one)."""
     problem = choice_problem(dynamics)
     if problem:
         raise ClosedFormUnavailable(f"{field}: {problem}")
@@ -243,7 +262,7 @@ def plant_kernels(robot: Robot, dynamics: str = "auto", field: str = "dynamics")
     """(kind, forward_dynamics, kinetic_energy) of ``robot`` for the simulation loop: kind is
     "closed_form" or "numeric", the kernels have the signatures of
     ``armlab.kernels.plant.forward_dynamics_packed`` and ``kinetic_energy_packed``."""
-    module = _choose(robot, dynamics, field)
+    module = chosen_module(robot, dynamics, field)
     if module is None:
         return "numeric", forward_dynamics_packed, kinetic_energy_packed
     return "closed_form", module.forward_dynamics, module.kinetic_energy
@@ -251,6 +270,6 @@ def plant_kernels(robot: Robot, dynamics: str = "auto", field: str = "dynamics")
 
 def inverse_dynamics_kernel(robot: Robot, dynamics: str = "auto", field: str = "dynamics"):
     """A compiled ``inverse_dynamics(packed, q, qd, qdd, tau_out)`` for ``robot``."""
-    module = _choose(robot, dynamics, field)
+    module = chosen_module(robot, dynamics, field)
     return inverse_dynamics_packed if module is None else module.inverse_dynamics
 

@@ -36,6 +36,7 @@ from numba import njit, types
 from armlab.errors import ArmlabError
 from armlab.kernels.dynamics import (
     coriolis_matrix_into,
+    forward_dynamics_into,
     gravity_into,
     mass_matrix_into,
     rnea_into,
@@ -154,10 +155,13 @@ _forward_entry = _entry(_V, _V, _V, _V, _V, _V)(forward_dynamics_packed)
 
 @_entry(_V, _V, _V, _V, _V)
 def _forward_free(packed, q, qd, tau, qdd_out):
-    """Forward dynamics without a wrench: the packed zero wrench is taken here, since slicing
-    it out of ``packed`` in Python costs a fifth of a PRP call."""
-    n = int(packed[0])
-    return forward_dynamics_packed(packed, q, qd, tau, packed[1 + n:7 + n], qdd_out)
+    """Forward dynamics without a wrench (the packed zero wrench: slicing it out of ``packed``
+    in Python cost a fifth of a PRP call); statuses of ``forward_dynamics_packed``, whose
+    entry may not compile (so it is not called here)."""
+    n, m, ws, zero_wrench = _unpack(packed)
+    if q.shape[0] != n or qd.shape[0] != n or tau.shape[0] != n or qdd_out.shape[0] != n:
+        return 1
+    return 0 if forward_dynamics_into(m, ws, q, qd, tau, zero_wrench, qdd_out) else 2
 _kinetic_entry = _entry(_V, _V, _V)(kinetic_energy_packed)
 
 
@@ -168,6 +172,51 @@ def _potential_entry(packed, q):
     if q.shape[0] != n:
         return np.nan
     return potential_energy_kernel(m, ws, q)
+
+
+NUMERIC = "numeric"
+# Where a robot keeps the Python entries of its generated module, per ``dynamics`` choice.
+_CLOSED_FORM_KEYS = {"auto": "_dynamics_entries_auto", "closed_form": "_dynamics_entries_closed_form"}
+
+
+class _ProcessLocal(tuple):
+    """Compiled entries kept on a robot, valid in this process only: a pickled robot carries
+    None in their place and finds them again when it needs them."""
+
+    def __reduce__(self):
+        return (type(None), ())
+
+
+def _closed_form(robot: Robot, dynamics: str):
+    """(inverse, mass, forward, zero wrench): Python entries of the module ``dynamics`` ("auto"
+    or "closed_form") chooses for ``robot`` (``armlab.closed_form``: generated, compiled and
+    checked on first use) and a wrench of zeros; False when the choice runs the numeric
+    kernels.  Kept in the robot's instance dictionary, like the packed robot."""
+    key = _CLOSED_FORM_KEYS.get(dynamics)
+    if key is None:
+        from armlab.closed_form import choice_problem
+
+        raise ValueError(f"dynamics: {choice_problem(dynamics)}")
+    entries = robot.__dict__.get(key)
+    if entries is None:
+        from armlab.closed_form import chosen_module
+
+        module = chosen_module(robot, dynamics)
+        entries = False if module is None else _ProcessLocal((
+            _python_entry(module.checked_inverse_dynamics, (_V,) * 5),
+            _python_entry(module.mass_matrix, (_V, _V, _M)),
+            _python_entry(module.forward_dynamics, (_V,) * 6), np.zeros(6)))
+        robot.__dict__[key] = entries
+    return entries
+
+
+def _python_entry(dispatcher, argtypes):
+    """A generated kernel as a Python entry point of one signature (see the module docstring);
+    compiled callers keep theirs (``kernel_address`` compiles what they need)."""
+    dispatcher.signature = argtypes
+    dispatcher._can_compile = False
+    _ready(dispatcher)
+    return dispatcher
 
 
 def _vector(robot: Robot, value, name: str, size: int | None = None) -> np.ndarray:
@@ -190,7 +239,8 @@ def _vectors(robot: Robot, **named) -> list[np.ndarray]:
     return [_vector(robot, value, name, 6 if name == "h_e" else None) for name, value in named.items()]
 
 
-def inverse_dynamics(robot: Robot, q, qd, qdd, h_e=None, gravity: bool = True) -> np.ndarray:
+def inverse_dynamics(robot: Robot, q, qd, qdd, h_e=None, gravity: bool = True,
+                     dynamics: str = NUMERIC) -> np.ndarray:
     """Joint forces τ (n,) [N | N·m] that produce q̈ at (q, q̇) under (D1), by recursive
     Newton–Euler (Siciliano et al. §7.5), motors and friction included.
 
@@ -202,9 +252,23 @@ def inverse_dynamics(robot: Robot, q, qd, qdd, h_e=None, gravity: bool = True) -
     h_e : (6,) or None, wrench [f_e; μ_e] the end effector exerts on the environment, in Σ_0
         [N, N·m], μ_e about Σ_e's origin; None for free motion.
     gravity : include g(q) (False: g_0 = 0).
+    dynamics : "numeric" (the general compiled kernels), "closed_form" (the robot's generated
+        module, ``armlab.closed_form``: made once per robot and machine, several times faster
+        per call) or "auto" (the generated module up to ``AUTO_MAX_JOINTS`` joints).  The
+        generated module serves calls without h_e and with gravity; others run the kernels.
     """
     packed, n = robot.__dict__.get(_CACHE_KEY) or _pack(robot)
     tau = np.empty(n)
+    entries = False if dynamics is NUMERIC or dynamics == NUMERIC else (
+        robot.__dict__.get(_CLOSED_FORM_KEYS.get(dynamics)) or _closed_form(robot, dynamics))
+    if entries and h_e is None and gravity:
+        try:
+            status = entries[0](packed, q, qd, qdd, tau)
+        except TypeError:
+            status = entries[0](packed, *_vectors(robot, q=q, qd=qd, qdd=qdd), tau)
+        if status:
+            _vectors(robot, q=q, qd=qd, qdd=qdd)
+        return tau
     if h_e is None and gravity:
         try:
             ok = _rnea_fast(packed, q, qd, qdd, tau)
@@ -225,11 +289,22 @@ def inverse_dynamics(robot: Robot, q, qd, qdd, h_e=None, gravity: bool = True) -
     return tau
 
 
-def inertia_matrix(robot: Robot, q) -> np.ndarray:
+def inertia_matrix(robot: Robot, q, dynamics: str = NUMERIC) -> np.ndarray:
     """Joint-space inertia matrix B(q), (n, n), symmetric positive definite, rotors included
-    (D2, D3), by the composite-rigid-body algorithm.  Units kg | kg·m | kg·m²."""
+    (D2, D3), by the composite-rigid-body algorithm (``dynamics`` as in
+    :func:`inverse_dynamics`).  Units kg | kg·m | kg·m²."""
     packed, n = robot.__dict__.get(_CACHE_KEY) or _pack(robot)
     B = np.empty((n, n))
+    entries = False if dynamics is NUMERIC or dynamics == NUMERIC else (
+        robot.__dict__.get(_CLOSED_FORM_KEYS.get(dynamics)) or _closed_form(robot, dynamics))
+    if entries:
+        try:
+            status = entries[1](packed, q, B)
+        except TypeError:
+            status = entries[1](packed, _vector(robot, q, "q"), B)
+        if status:
+            _vector(robot, q, "q")
+        return B
     try:
         ok = _mass_matrix_entry(packed, q, B)
     except TypeError:
@@ -273,18 +348,27 @@ def gravity_torque(robot: Robot, q) -> np.ndarray:
     return g
 
 
-def forward_dynamics(robot: Robot, q, qd, tau, h_e=None) -> np.ndarray:
+def forward_dynamics(robot: Robot, q, qd, tau, h_e=None, dynamics: str = NUMERIC) -> np.ndarray:
     """Joint accelerations q̈ (n,) of (D1) under the joint forces τ (n,) [N | N·m]:
 
         B(q) q̈ = τ − C q̇ − F_v q̇ − F_s sgn(q̇) − g(q) − Jᵀ h_e                            (D5)
 
     solved by Cholesky factorisation of B (never an inverse).  ``h_e`` as in
-    :func:`inverse_dynamics`.  Raises :class:`SingularInertiaError` if B is not positive
-    definite.
+    :func:`inverse_dynamics`, and ``dynamics`` (a generated module serves every call).  Raises
+    :class:`SingularInertiaError` if B is not positive definite.
     """
     packed, n = robot.__dict__.get(_CACHE_KEY) or _pack(robot)
     qdd = np.empty(n)
-    if h_e is None:
+    entries = False if dynamics is NUMERIC or dynamics == NUMERIC else (
+        robot.__dict__.get(_CLOSED_FORM_KEYS.get(dynamics)) or _closed_form(robot, dynamics))
+    if entries:
+        h = entries[3] if h_e is None else h_e
+        try:
+            status = entries[2](packed, q, qd, tau, h, qdd)
+        except TypeError:
+            q, qd, tau, h = _vectors(robot, q=q, qd=qd, tau=tau, h_e=h)
+            status = entries[2](packed, q, qd, tau, h, qdd)
+    elif h_e is None:
         try:
             status = _forward_free(packed, q, qd, tau, qdd)
         except TypeError:

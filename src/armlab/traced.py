@@ -31,6 +31,8 @@ The module has the interface of the Lagrange closed forms (``armlab.symbolic.mod
         evaluated when h_e ≠ 0; the LDLᵀ solve of the Lagrange modules, whose entries
         B_ij ≡ 0 generate no code
     kinetic_energy(packed, q, qd) -> T = ½ q̇ᵀ B(q) q̇                           (D6)
+    mass_matrix(packed, q, B_out) -> 0 | 1 wrong length      B(q) by the CRBA     (D2)
+    checked_inverse_dynamics(packed, q, qd, qdd, tau_out) -> 0 | 1 wrong length
 
 The packed robot is ignored (the numbers are in the code).  ``armlab.closed_form`` writes the
 module to its cache folder, compiles it with numba (``cache=True``) and checks it against the
@@ -341,7 +343,8 @@ def _friction(arrays: RobotArrays) -> tuple[list[str], list[str]]:
 
 def traced_source(robot: Robot, *, key: str, name: str) -> str:
     """Source of the module (interface in the module docstring) for ``robot``."""
-    from armlab.symbolic.module_source import _ldl_solve  # imports SymPy: at generation only
+    # These import SymPy: at generation only.
+    from armlab.symbolic.module_source import _ldl_solve, checked_inverse_lines, mass_matrix_lines
 
     n = robot.n
     tracer = _Tracer(robot)
@@ -408,5 +411,13 @@ def traced_source(robot: Robot, *, key: str, name: str) -> str:
                '    """T = ½ q̇ᵀ B q̇ (D6) [J]; NaN for a wrong length."""',
                f"    if q.shape[0] != {n} or qd.shape[0] != {n}:", "        return math.nan",
                *body, f"    return {_text(energy)}"]
+    # B(q) on its own.
+    tape = _Tape()
+    q = tracer.inputs(tape, "q", "q", n)
+    B = tracer.mass_matrix(q)
+    entries = [B[i, j] for i in range(n) for j in range(n)]
+    body, _ = _live(tape.lines, _names(entries))
+    mass = mass_matrix_lines(n, body, [_text(value) for value in entries])
     return (HEADER.format(name=name, key=key) + "\n".join(inverse) + "\n\n\n" + "\n".join(forward)
-            + "\n\n\n" + "\n".join(kinetic) + "\n")
+            + "\n\n\n" + "\n".join(kinetic) + "\n\n\n" + "\n".join(mass) + "\n\n\n"
+            + "\n".join(checked_inverse_lines(n)) + "\n")

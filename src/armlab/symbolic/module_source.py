@@ -9,6 +9,9 @@ disk like any other kernel; the functions have the signatures of the packed-robo
     forward_dynamics(packed, q, qd, tau, h_e, qdd_out) -> 0 | 1 wrong length | 2 B not PD
         B(q) q̈ = τ − C q̇ − g − F_v q̇ − F_s sgn q̇ − Jᵀ(q) h_e                          (D1, D5)
     kinetic_energy(packed, q, qd) -> T = ½ q̇ᵀ B(q) q̇                                    (D6)
+    mass_matrix(packed, q, B_out) -> 0 | 1 wrong length           B(q), (n, n)             (D2)
+    checked_inverse_dynamics(packed, q, qd, qdd, tau_out) -> 0 | 1 wrong length
+        ``inverse_dynamics`` with its lengths checked (the entry for calls from Python)
 
 B, C q̇ + g and J come from the Lagrange derivation of ``armlab.symbolic`` (A2–A3) with the
 robot's numbers substituted; SymPy's common-subexpression elimination and code printer write
@@ -175,5 +178,30 @@ def closed_form_source(sr: SymbolicRobot, *, key: str, name: str) -> str:
                '    """T = ½ q̇ᵀ B q̇ (D6) [J]; NaN for a wrong length."""',
                f"    if q.shape[0] != {n} or qd.shape[0] != {n}:", "        return math.nan",
                *unpack, *cse_lines, f"    return {outputs[0]}"]
+    cse_lines, outputs = _statements([B[i, j] for i in range(n) for j in range(n)], "m", printer)
+    mass = mass_matrix_lines(n, [f"    q{i} = q[{i}]" for i in range(n)] + cse_lines, outputs)
     return (HEADER.format(name=name, key=key) + "\n".join(inverse) + "\n\n\n" + "\n".join(forward)
-            + "\n\n\n" + "\n".join(kinetic) + "\n")
+            + "\n\n\n" + "\n".join(kinetic) + "\n\n\n" + "\n".join(mass) + "\n\n\n"
+            + "\n".join(checked_inverse_lines(n)) + "\n")
+
+
+def mass_matrix_lines(n: int, body: list[str], entries: list[str]) -> list[str]:
+    """``mass_matrix(packed, q, B_out)``: ``body`` computes the n² row-major ``entries``."""
+    return ["@njit(cache=True, _nrt=False)", "def mass_matrix(packed, q, B_out):",
+            '    """B(q) (D2); 1 for a wrong length."""',
+            f"    if q.shape[0] != {n} or B_out.shape[0] != {n} or B_out.shape[1] != {n}:",
+            "        return 1", *body,
+            *[f"    B_out[{i}, {j}] = {entries[n * i + j]}" for i in range(n) for j in range(n)],
+            "    return 0"]
+
+
+def checked_inverse_lines(n: int) -> list[str]:
+    """``checked_inverse_dynamics``: the module's ``inverse_dynamics`` after a length check."""
+    return ["@njit(cache=True, _nrt=False)",
+            "def checked_inverse_dynamics(packed, q, qd, qdd, tau_out):",
+            '    """inverse_dynamics for calls from Python; 1 for a wrong length."""',
+            f"    if (q.shape[0] != {n} or qd.shape[0] != {n} or qdd.shape[0] != {n}"
+            f" or tau_out.shape[0] != {n}):",
+            "        return 1",
+            "    inverse_dynamics(packed, q, qd, qdd, tau_out)",
+            "    return 0"]
