@@ -514,6 +514,9 @@ def test_lyapunov_function_of_a_slotine_li_run_is_drawn_and_never_increases():
     assert "signals" not in scopes  # σ has its figure; Y is in the estimates
     mismatch = scopes["estimates"].panels[-1]
     assert mismatch.note.startswith("RMS, last 0.3 s")
+    assert scopes["estimates"].caption == ""  # the switches' spikes are the square wave's
+    square = {s.name: s for s in scope_layout(load_scenario("a8_case2_square").run(t_final=3.0))}
+    assert "jumps at every switch" in square["estimates"].caption
     assert lyapunov_function(_synthetic_result()) is None
 
 

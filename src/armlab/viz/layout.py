@@ -357,12 +357,14 @@ def _square_wave_caption(run: _Run, final: float, unit: str) -> str:
     reference = run.controller.get("reference")
     if not (isinstance(reference, dict) and reference.get("type") == "SquareWaveAcceleration"):
         return ""
+    if run.result.meta.get("disturbance"):
+        return ""  # a wrong plant: Y(π̂ − π) is then dominated by the terms Y π cannot represent
     step = 2.0 * float(reference.get("amplitude", 0.0))
     half = 0.5 * float(reference.get("period", 0.0))
     return (f"Y(π̂ − π) jumps at every switch of the square-wave q̈_des (every {half:g} s): the q̈_r column "
             f"of Y steps by 2A = {step:g} rad/s² and multiplies Î − I ≠ 0, until the loop absorbs the "
             f"step. The panel gives the RMS over the last {100 * NOTE_TAIL:g} % of the run, not the sample "
-            f"at t_final ({final:.3g} {unit}), which may fall on a switch.")
+            f"at t_final ({final:.3g}\u00a0{unit}), which may fall on a switch.")
 
 
 def _estimate_scopes(run: _Run) -> list[Scope]:
