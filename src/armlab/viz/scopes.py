@@ -26,7 +26,7 @@ from matplotlib.transforms import blended_transform_factory  # noqa: E402
 
 from armlab.errors import ArmlabError  # noqa: E402
 from armlab.viz.html import figure_png  # noqa: E402
-from armlab.viz.layout import (  # noqa: E402, F401  (Panel … pretty: the names scopes always had)
+from armlab.viz.layout import (  # noqa: E402, F401  (also imported from here by callers)
     ACTUAL,
     COMMAND,
     DESIRED,
