@@ -162,6 +162,8 @@ def _forward_free(packed, q, qd, tau, qdd_out):
     if q.shape[0] != n or qd.shape[0] != n or tau.shape[0] != n or qdd_out.shape[0] != n:
         return 1
     return 0 if forward_dynamics_into(m, ws, q, qd, tau, zero_wrench, qdd_out) else 2
+
+
 _kinetic_entry = _entry(_V, _V, _V)(kinetic_energy_packed)
 
 
