@@ -33,6 +33,7 @@ from armlab.control.task_space import (
     TaskController,
     gain_matrix,
     inverse_dynamics_law,
+    jacobian_signals,
     log_pose_signals,
     solve_and_apply,
 )
@@ -286,14 +287,12 @@ class _ForceBase(Controller):
 
     def signals(self) -> tuple[Signal, ...]:
         xyz = ("x", "y", "z")
-        n = self.model.n
         return (Signal("f_des", xyz, ("N",) * 3), Signal("x_F", xyz, ("m",) * 3),
-                Signal("p", xyz, ("m",) * 3), Signal("p_des", xyz, ("m",) * 3),
-                Signal("jacobian_sv", tuple(f"sigma{i + 1}" for i in range(n)), ("",) * n),
-                Signal("det_JP", ("det",), ("",)))
+                Signal("p", xyz, ("m",) * 3), Signal("p_des", xyz, ("m",) * 3)) + jacobian_signals(self.model)
 
     def describe(self) -> dict:
-        out = {"type": type(self).__name__, "model": self.model.name, "force": self.force.describe()}
+        out = {"type": type(self).__name__, "model": self.model.name, "force": self.force.describe(),
+               "singular_warning": self.singular_warning}
         for name in ("kp", "kd", "kf", "ki", "mass"):
             out[name] = np.asarray(getattr(self, name), dtype=float).tolist()
         return out

@@ -141,13 +141,10 @@ class TaskController(Controller):
     def _task_signals(self) -> tuple[Signal, ...]:
         angle_unit = "rad"
         units6 = ("m",) * 3 + (angle_unit,) * 3
-        n = self.model.n
         return (Signal("x_err", COMPONENT_LABELS, units6),
                 Signal("x", COMPONENT_LABELS, units6),
                 Signal("p", ("x", "y", "z"), ("m",) * 3),
-                Signal("p_des", ("x", "y", "z"), ("m",) * 3),
-                Signal("jacobian_sv", tuple(f"sigma{i + 1}" for i in range(n)), ("",) * n),
-                Signal("det_JP", ("det",), ("",)))
+                Signal("p_des", ("x", "y", "z"), ("m",) * 3)) + jacobian_signals(self.model)
 
     def signals(self) -> tuple[Signal, ...]:
         return self._task_signals()
@@ -170,11 +167,22 @@ class TaskController(Controller):
     def describe(self) -> dict:
         out = {"type": type(self).__name__, "model": self.model.name,
                "reference": self.reference.describe(), "task": list(self.task), "frame": self.frame,
-               "euler": self.euler, "damping": self.damping}
+               "euler": self.euler, "damping": self.damping, "singular_warning": self.singular_warning}
         for key, value in self._derived.items():
             if key.startswith("k") or key.startswith("m"):
                 out[key] = value.tolist() if isinstance(value, np.ndarray) else value
         return out
+
+
+def jacobian_signals(robot: Robot) -> tuple[Signal, Signal]:
+    """The singular values of J_s (``jacobian_sv``, units mixed by the task's rows: none) and
+    det J_P (``det_JP``), whose unit is m per revolute joint: a prismatic joint's column of J_P
+    is a pure number [m/m], a revolute joint's is in m/rad."""
+    n = robot.n
+    revolute = sum(joint.kind != "prismatic" for joint in robot.joints)
+    unit = {0: "", 1: "m"}.get(revolute, f"m^{revolute}")
+    return (Signal("jacobian_sv", tuple(f"sigma{i + 1}" for i in range(n)), ("",) * n),
+            Signal("det_JP", ("det",), (unit,)))
 
 
 @njit(cache=True)
