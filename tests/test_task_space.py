@@ -171,3 +171,11 @@ def test_near_singular_goal_is_logged_and_warned():
     assert abs(result.signals["det_JP"][-1, 0]) == pytest.approx(0.01, abs=1e-4)
     with pytest.warns(SingularityWarning, match="near singular"):
         controller.check(result)
+
+
+def test_det_jp_is_in_metres_per_revolute_joint():
+    from armlab.control.task_space import jacobian_signals
+
+    sv, det = jacobian_signals(load_robot("prp"))      # P R P: one revolute column in J_P
+    assert det.units == ("m",) and sv.width == 3
+    assert jacobian_signals(load_robot("planar2r"))[1].units == ("m^2",)
