@@ -76,6 +76,22 @@ def _per_joint(value, n: int, field: str, default: float) -> np.ndarray:
     return np.broadcast_to(array, (n,)).astype(float)
 
 
+def _divergence_limits(plant, limit_margin: float) -> tuple[np.ndarray, np.ndarray]:
+    """(q_lo, q_hi): the joint limits widened by ``limit_margin`` of their span (±∞ where a
+    joint has none).  Kept by the plant per margin: every run shares them (the loop only reads
+    them; they stay writeable, the type the compiled loop was built for)."""
+    known = plant.__dict__.setdefault("_divergence_limits", {})
+    limits = known.get(limit_margin)
+    if limits is None:
+        arrays = plant.arrays
+        span = arrays.q_max - arrays.q_min
+        margin = np.where(np.isfinite(span), limit_margin * span, np.inf)
+        limits = (np.where(np.isfinite(arrays.q_min), arrays.q_min - margin, -np.inf),
+                  np.where(np.isfinite(arrays.q_max), arrays.q_max + margin, np.inf))
+        known[limit_margin] = limits
+    return limits
+
+
 def _steps(span: float, dt: float, field: str) -> int:
     if not np.isfinite(span):
         raise SimulationError(f"{field}: must be a finite time, got {span!r}")
@@ -113,18 +129,15 @@ class _Setup:
         qd0 = _per_joint(qd0, n, "qd0", 0.0)
         z0 = np.asarray(controller.initial_state(), dtype=float).ravel()
         self.x0 = np.concatenate([q0, qd0, z0])
-        for name, part in (("q0", q0), ("qd0", qd0), ("controller initial state", z0)):
-            if not np.all(np.isfinite(part)):
-                raise SimulationError(f"{name}: must be finite, got {part.tolist()}")
+        if not np.isfinite(self.x0).all():
+            for name, part in (("q0", q0), ("qd0", qd0), ("controller initial state", z0)):
+                if not np.isfinite(part).all():
+                    raise SimulationError(f"{name}: must be finite, got {part.tolist()}")
         self.k = z0.shape[0]
         self.lim = _per_joint(torque_limit, n, "torque_limit", np.inf)
         if np.any(self.lim <= 0):
             raise SimulationError("torque_limit: must be positive")
-        arrays = plant.arrays
-        span = arrays.q_max - arrays.q_min
-        margin = np.where(np.isfinite(span), float(limit_margin) * span, np.inf)
-        self.q_lo = np.where(np.isfinite(arrays.q_min), arrays.q_min - margin, -np.inf)
-        self.q_hi = np.where(np.isfinite(arrays.q_max), arrays.q_max + margin, np.inf)
+        self.q_lo, self.q_hi = _divergence_limits(plant, float(limit_margin))
         self.ke_max = float(max_kinetic_energy)
         self.dist = encode_disturbances(disturbance, n)
         self.disturbance = disturbance

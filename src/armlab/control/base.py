@@ -132,6 +132,10 @@ class ProtocolError(ArmlabError, TypeError):
     """A controller or environment that does not follow the protocol of this module."""
 
 
+_JOINT_UNITS = {"position": ("m", "rad"), "error": ("m", "rad"), "velocity": ("m/s", "rad/s"),
+                "acceleration": ("m/s²", "rad/s²"), "effort": ("N", "N·m")}
+
+
 @dataclass(frozen=True)
 class Signal:
     """A named, logged signal: ``labels`` (one per component) and ``units`` (one per component)."""
@@ -158,13 +162,16 @@ class Signal:
         ``kind``: "position" / "error" (m | rad), "velocity" (m/s | rad/s), "acceleration"
         (m/s² | rad/s²) or "effort" (N | N·m).
         """
-        table = {"position": ("m", "rad"), "error": ("m", "rad"), "velocity": ("m/s", "rad/s"),
-                 "acceleration": ("m/s²", "rad/s²"), "effort": ("N", "N·m")}
-        if kind not in table:
-            raise ProtocolError(f"signal {name}: unknown kind {kind!r} (use {', '.join(table)})")
-        prismatic, revolute = table[kind]
-        units = [prismatic if j.kind == "prismatic" else revolute for j in robot.joints]
-        return cls(name, tuple(robot.joint_names), tuple(units))
+        # Signals are immutable and every simulation asks for a dozen: the robot keeps them.
+        known = robot.__dict__.setdefault("_joint_signals", {})
+        signal = known.get((cls, name, kind))
+        if signal is None:
+            if kind not in _JOINT_UNITS:
+                raise ProtocolError(f"signal {name}: unknown kind {kind!r} (use {', '.join(_JOINT_UNITS)})")
+            prismatic, revolute = _JOINT_UNITS[kind]
+            units = [prismatic if j.kind == "prismatic" else revolute for j in robot.joints]
+            signal = known[(cls, name, kind)] = cls(name, tuple(robot.joint_names), tuple(units))
+        return signal
 
 
 @dataclass(frozen=True)

@@ -56,6 +56,7 @@ def _check_reference(reference, n, field="reference"):
 # the loop that calls them (no call boundary passing the robot's arrays by value).
 law_kernel = njit(cache=True, _nrt=False, inline="always")
 _VEC = types.float64[::1]
+_INVERSE_DYNAMICS_TYPES = (_VEC,) * 5   # one tuple: kernel_address finds it by identity
 
 
 @law_kernel
@@ -212,7 +213,7 @@ class JointInverseDynamics(Controller):
             kernel = inverse_dynamics_kernel(self.model, self.dynamics, "dynamics")
         except ClosedFormUnavailable as error:
             raise ProtocolError(f"dynamics: {error}") from None
-        return (kernel_address(kernel, (_VEC,) * 5, types.none), packed_copy(self.model),
+        return (kernel_address(kernel, _INVERSE_DYNAMICS_TYPES, types.none), packed_copy(self.model),
                 np.array(self.reference.data), self.kp, self.kd, np.zeros(n), np.zeros(n),
                 np.zeros(n), np.zeros(n))
 

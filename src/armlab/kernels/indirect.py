@@ -85,6 +85,9 @@ call_int = _indirect_call(types.int64)
 call_status = _indirect_call(types.UniTuple(types.int64, 4))
 
 _ADDRESSES: dict = {}
+# The same lookups by identity, for callers that pass the same argument-type tuple every time
+# (a module constant): hashing numba types costs microseconds a lookup, on every simulation.
+_BY_IDENTITY: dict = {}
 # Compiling a stated signature briefly lifts an entry point's compile ban (below); threads of
 # a parallel sweep may ask for addresses at the same time.
 _COMPILE_LOCK = threading.Lock()
@@ -101,6 +104,9 @@ def kernel_address(dispatcher, argtypes: tuple, restype) -> int:
     ``restype`` is the return type the caller's ``call_*`` expects: the caller reserves room
     for exactly that, so a function returning anything else (a law ending in ``return tau``)
     is refused here instead of overwriting the caller's stack."""
+    known = _BY_IDENTITY.get((id(dispatcher), id(argtypes)))
+    if known is not None and known[0] is dispatcher and known[1] is argtypes:
+        return known[2]
     key = (dispatcher, tuple(argtypes))
     address = _ADDRESSES.get(key)
     if address is None:
@@ -123,4 +129,5 @@ def kernel_address(dispatcher, argtypes: tuple, restype) -> int:
             raise IndirectCallError(f"{name}: returns {returned}, its caller expects {restype}")
         address = result.library.get_pointer_to_function(result.fndesc.llvm_func_name)
         _ADDRESSES[key] = address
+    _BY_IDENTITY[(id(dispatcher), id(argtypes))] = (dispatcher, argtypes, address)
     return address

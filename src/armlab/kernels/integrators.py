@@ -487,7 +487,7 @@ _CORE_RETURNS = {"rk4": types.UniTuple(types.int64, 4), "rhs": types.int64, "log
 
 def core_address(name: str) -> int:
     """Address of the loop ``name`` ("rk4", "rhs" or "log"), for the entries below."""
-    return kernel_address(_CORES[name], _CORE_TYPES[name], _CORE_RETURNS[name])
+    return kernel_address(_CORES[name], _CORE_TYPES[name], _CORE_RETURNS[name])  # same tuples: fast
 
 
 # Entries: compiled per (controller, environment) parameter types, they only unbox the
