@@ -12,7 +12,8 @@ loop with the PRP's closed-form dynamics, side by side in one run.
   an empty numba cache (compiles every kernel, the law and the loop) and again with it filled.
 
 Single-run times are the best of several repeats of thread CPU time (less sensitive to other
-processes on a shared machine); the sweep uses wall time.  Targets (issue): armlab ≤ 3× the
+processes on a shared machine): 20 of the compiled runs (a few ms each), 3 of the Python loop
+over Pinocchio (a third of a second each); the sweep uses wall time.  Targets (issue): armlab ≤ 3× the
 hand-written loop and ≥ 100× faster than the Pinocchio loop for the PRP, ≥ 20× for the Puma.
 
 Run: ``python benchmarks/bench_simulation.py`` or ``make bench``.
@@ -41,7 +42,7 @@ HERE = Path(__file__).resolve().parent
 T_FINAL, DT = 10.0, 1e-3
 
 
-def best_cpu(function, repeats=5):
+def best_cpu(function, repeats=20):
     """Best thread CPU time of ``function()`` over ``repeats`` calls [s] and its last value."""
     best, value = np.inf, None
     for _ in range(repeats):
@@ -175,7 +176,7 @@ def compare(name, robot, controller, times, values, kp, kd, q0, hand=None):
     simulate(robot, controller, q0=q0, t_final=0.01, dt=DT)            # load/compile once
     t_armlab, result = best_cpu(lambda: simulate(robot, controller, q0=q0, t_final=T_FINAL, dt=DT))
     run_pin = pinocchio_loop(robot, times, values, kp, kd, q0)
-    t_pin, q_pin = best_cpu(run_pin, repeats=1)
+    t_pin, q_pin = best_cpu(run_pin, repeats=3)
     kind = result.meta["dynamics"].replace("_", " ")
     rows = [(f"armlab.simulate (compiled RK4 loop, {kind})", t_armlab, result.q)]
     if kind != "numeric":
