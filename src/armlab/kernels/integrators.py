@@ -145,8 +145,6 @@ _I64 = types.int64
 _IVEC = types.int64[::1]
 
 
-
-
 @njit(cache=True, _nrt=False)
 def env_trampoline(ep, env, t, R_0e, p_0e, v_e, h_e_out):
     """The environment law at ``env`` called with the parameter tuple at ``ep``."""
