@@ -416,8 +416,10 @@ def _estimate_scopes(run: _Run) -> list[Scope]:
         run.used.add("Y")
         caption = _square_wave_caption(run, float(mismatch[-1]), unit)
     run.used.add("z")
-    scopes.append(Scope("estimates", "parameter estimates π̂ (controller state) and true values π",
-                        panels, caption=caption))
+    title = "parameter estimates π̂ (controller state) and true values π"
+    if "Y" in run.used:
+        title += ", and Y(π̂ − π)"
+    scopes.append(Scope("estimates", title, panels, caption=caption))
     return scopes
 
 
@@ -529,7 +531,11 @@ def _signal_panels(run: _Run, name: str, data: np.ndarray, state: bool) -> list[
     labels, units = run.labels[name], run.units[name]
     panels = []
     for unit, columns in _unit_blocks(units):
-        panel = Panel(_unit_label("controller state" if state else name, unit))
+        title = "controller state" if state else name
+        if len(columns) == 1 and data.shape[1] > 1:
+            # A unit's only column of a wider group (g_comp's θ2): the label names the joint.
+            title = f"{title} {labels[columns[0]]}"
+        panel = Panel(_unit_label(title, unit))
         for j, k in enumerate(columns):
             # A one-column signal is the signal itself (σ, not the name of its joint).
             entry = pretty(name) if data.shape[1] == 1 and not state else pretty(labels[k])
