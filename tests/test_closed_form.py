@@ -190,6 +190,12 @@ def test_the_public_functions_name_bad_input_with_the_generated_module():
         armlab.forward_dynamics(robot, z, z, z, h_e=np.zeros(5), dynamics="closed_form")
     with pytest.raises(ValueError, match="dynamics: 'fast' is not one of"):
         armlab.inertia_matrix(robot, z, dynamics="fast")
+    for odd in (["auto"], np.array(["numeric"]), None):
+        with pytest.raises(ValueError, match="dynamics: .* is not one of"):
+            armlab.forward_dynamics(robot, z, z, z, dynamics=odd)
+    # "numeric" by another string object than the default: the kernels, not an error.
+    np.testing.assert_array_equal(armlab.inertia_matrix(robot, z, dynamics="".join("numeric")),
+                                  armlab.inertia_matrix(robot, z))
 
 
 def test_a_robot_keeps_its_generated_entries_out_of_pickles():

@@ -5,6 +5,7 @@ import dataclasses
 
 import numpy as np
 import pytest
+from numba import njit
 
 import armlab
 from armlab.control.adaptive import SlotineLi1DoF
@@ -130,11 +131,11 @@ def test_same_run_twice_is_bit_identical():
 
 
 def _without_entry(controller):
-    """The same controller as an instance of a subclass that redeclares ``law`` without an
-    ``entry``: the loop then calls the law through its address (the path of a user's law)."""
+    """The same controller as an instance of a subclass without an ``entry``: the loop then
+    calls the law through its address (the path of a user's law)."""
     cls = type(controller)
     plain = dataclasses.make_dataclass(f"Plain{cls.__name__}", [], bases=(cls,), frozen=True, eq=False,
-                                       namespace={"law": cls.law})
+                                       namespace={"entry": None})
     return plain(**{f.name: getattr(controller, f.name) for f in dataclasses.fields(controller)})
 
 
@@ -153,6 +154,27 @@ def test_a_law_entry_gives_the_results_of_the_law_called_by_address(method):
         assert np.abs(with_entry.q[-1] - with_entry.q[0]).max() > 1e-3   # the arm moved
         for name, array in with_entry.groups().items():
             assert array.tobytes() == by_address.groups()[name].tobytes(), (type(controller), name)
+
+
+def test_an_entry_runs_only_with_the_law_it_inlines(monkeypatch):
+    @njit(cache=False)
+    def no_torque(t, q, qd, z, h_e, params, tau_out, zdot_out, signals_out):
+        for i in range(q.shape[0]):
+            tau_out[i] = 0.0
+        for i in range(signals_out.shape[0]):
+            signals_out[i] = 0.0
+
+    controller = pd(PRP, [25, 0.5, 10], [10, 0.08, 3], [0.1, 1.0, 0.05])
+    kwargs = dict(q0=[0, 0, 0], t_final=0.2, dt=1e-3)
+    # A subclass with another law inherits the entry of its parent's law: not used.
+    other = dataclasses.make_dataclass("NoTorque", [], bases=(JointPDGravity,), frozen=True, eq=False,
+                                       namespace={"law": no_torque})
+    assert _own_entry(other) is None
+    # Nor when the law is replaced on the class itself.
+    monkeypatch.setattr(JointPDGravity, "law", no_torque)
+    assert _own_entry(JointPDGravity) is None
+    result = simulate(PRP, controller, **kwargs)
+    assert np.abs(result.tau).max() == 0.0
 
 
 @pytest.mark.parametrize("method", ["rk4", "adaptive"])
@@ -207,3 +229,26 @@ def test_bad_arguments_name_the_field():
         simulate(LINK1, controller, q0=[0], t_final=0.01, dt=1e-3)
     with pytest.raises(SimulationError, match="method"):
         simulate(PRP, controller, q0=[0, 0, 0], t_final=0.01, dt=1e-3, method="euler")
+    for margin in (float("nan"), -0.1):
+        with pytest.raises(SimulationError, match="limit_margin"):
+            simulate(PRP, controller, q0=[0, 0, 0], t_final=0.01, dt=1e-3, limit_margin=margin)
+
+
+def test_a_saturated_contact_run_logs_command_and_wrench_where_they_belong():
+    # Saturation and an environment without a disturbance: τ_cmd and h_e are logged, τ_d is
+    # not (the log's layout (1, 0, 1)); each must hold its own values.
+    from armlab.scenarios import load_scenario
+
+    scenario = load_scenario("a11_compliance")
+    limit = 1.0
+    result = scenario.run(t_final=0.3, torque_limit=limit)
+    assert "tau_cmd" in result.signals and "h_e" in result.signals and "tau_dist" not in result.signals
+    assert np.abs(result.signals["tau_cmd"]).max() > limit          # the limit did clip
+    np.testing.assert_array_equal(result.tau, np.clip(result.signals["tau_cmd"], -limit, limit))
+    plant, environment = scenario.plant, scenario.environment
+    assert np.abs(result.signals["h_e"]).max() > 0.1                 # in contact
+    for k in range(0, len(result.t), 37):
+        q, qd = result.q[k], result.qd[k]
+        v_e = armlab.geometric_jacobian(plant, q, frame="0") @ qd
+        expected = environment.wrench(armlab.forward_kinematics(plant, q, frame="0"), v_e)
+        np.testing.assert_allclose(result.signals["h_e"][k], expected, rtol=1e-9, atol=1e-12)

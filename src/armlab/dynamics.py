@@ -194,11 +194,13 @@ def _closed_form(robot: Robot, dynamics: str):
     or "closed_form") chooses for ``robot`` (``armlab.closed_form``: generated, compiled and
     checked on first use) and a wrench of zeros; False when the choice runs the numeric
     kernels.  Kept in the robot's instance dictionary, like the packed robot."""
-    key = _CLOSED_FORM_KEYS.get(dynamics)
+    if type(dynamics) is str and dynamics == NUMERIC:
+        return False
+    key = _CLOSED_FORM_KEYS.get(dynamics) if type(dynamics) is str else None
     if key is None:
-        from armlab.closed_form import choice_problem
+        from armlab.closed_form import DYNAMICS_CHOICES
 
-        raise ValueError(f"dynamics: {choice_problem(dynamics)}")
+        raise ValueError(f"dynamics: {dynamics!r} is not one of {', '.join(DYNAMICS_CHOICES)}")
     entries = robot.__dict__.get(key)
     if entries is None:
         from armlab.closed_form import chosen_module
@@ -261,8 +263,9 @@ def inverse_dynamics(robot: Robot, q, qd, qdd, h_e=None, gravity: bool = True,
     """
     packed, n = robot.__dict__.get(_CACHE_KEY) or _pack(robot)
     tau = np.empty(n)
-    entries = False if dynamics is NUMERIC or dynamics == NUMERIC else (
-        robot.__dict__.get(_CLOSED_FORM_KEYS.get(dynamics)) or _closed_form(robot, dynamics))
+    entries = False if dynamics is NUMERIC else (
+        type(dynamics) is str and robot.__dict__.get(_CLOSED_FORM_KEYS.get(dynamics))
+        or _closed_form(robot, dynamics))
     if entries and h_e is None and gravity:
         try:
             status = entries[0](packed, q, qd, qdd, tau)
@@ -297,8 +300,9 @@ def inertia_matrix(robot: Robot, q, dynamics: str = NUMERIC) -> np.ndarray:
     :func:`inverse_dynamics`).  Units kg | kg·m | kg·m²."""
     packed, n = robot.__dict__.get(_CACHE_KEY) or _pack(robot)
     B = np.empty((n, n))
-    entries = False if dynamics is NUMERIC or dynamics == NUMERIC else (
-        robot.__dict__.get(_CLOSED_FORM_KEYS.get(dynamics)) or _closed_form(robot, dynamics))
+    entries = False if dynamics is NUMERIC else (
+        type(dynamics) is str and robot.__dict__.get(_CLOSED_FORM_KEYS.get(dynamics))
+        or _closed_form(robot, dynamics))
     if entries:
         try:
             status = entries[1](packed, q, B)
@@ -361,8 +365,9 @@ def forward_dynamics(robot: Robot, q, qd, tau, h_e=None, dynamics: str = NUMERIC
     """
     packed, n = robot.__dict__.get(_CACHE_KEY) or _pack(robot)
     qdd = np.empty(n)
-    entries = False if dynamics is NUMERIC or dynamics == NUMERIC else (
-        robot.__dict__.get(_CLOSED_FORM_KEYS.get(dynamics)) or _closed_form(robot, dynamics))
+    entries = False if dynamics is NUMERIC else (
+        type(dynamics) is str and robot.__dict__.get(_CLOSED_FORM_KEYS.get(dynamics))
+        or _closed_form(robot, dynamics))
     if entries:
         h = entries[3] if h_e is None else h_e
         try:

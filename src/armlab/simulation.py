@@ -137,6 +137,8 @@ class _Setup:
         self.lim = _per_joint(torque_limit, n, "torque_limit", np.inf)
         if np.any(self.lim <= 0):
             raise SimulationError("torque_limit: must be positive")
+        if not (np.isfinite(limit_margin) and limit_margin >= 0):
+            raise SimulationError(f"limit_margin: must be a finite fraction ≥ 0, got {limit_margin!r}")
         self.q_lo, self.q_hi = _divergence_limits(plant, float(limit_margin))
         self.ke_max = float(max_kinetic_energy)
         self.dist = encode_disturbances(disturbance, n)
@@ -249,11 +251,12 @@ def _compiled(law, what):
 
 
 def _own_entry(cls):
-    """The ``entry`` declared by the class that declares ``law`` (a subclass that changes the
-    law without its entry must not run its parent's law), or None."""
-    for klass in cls.__mro__:
-        if "law" in vars(klass):
-            return vars(klass).get("entry")
+    """The class's ``entry`` if it was made for the class's ``law`` (``law_entry``), else None:
+    a subclass that changes the law, or a law replaced on the class, must not run the law an
+    entry inlined."""
+    entry = getattr(cls, "entry", None)
+    if entry is not None and getattr(entry, "inlined_law", None) is cls.law:
+        return entry
     return None
 
 

@@ -77,7 +77,7 @@ def slotine_li_1dof_law(t, q, qd, z, h_e, params, tau_out, zdot_out, signals_out
     signals_out[3], signals_out[4], signals_out[5] = Y[0], Y[1], Y[2]
 
 
-@law_entry
+@law_entry(slotine_li_1dof_law)
 def slotine_li_1dof_entry(cp, law, t, work, n, k, s):
     """(C4), (C5) of the 1-DoF link as the simulation loop calls it (``Controller.entry``)."""
     q, qd, z, h_e, tau_out, zdot_out, signals_out = law_views(work, n, k, s)

@@ -62,14 +62,14 @@ Optionally, the class attribute ``entry`` names the law's *loop entry*, a module
 function that the simulation loop calls instead of the law (``armlab.kernels.integrators``).
 It is written once next to the law, always the same three lines::
 
-    @law_entry                                      # armlab.kernels.integrators
+    @law_entry(pd_law)                              # armlab.kernels.integrators
     def pd_entry(cp, law, t, work, n, k, s):
         q, qd, z, h_e, tau_out, zdot_out, signals_out = law_views(work, n, k, s)
         pd_law(t, q, qd, z, h_e, cp[0], tau_out, zdot_out, signals_out)
 
 so that the law is compiled inlined into the loop's call (~10% of a small robot's run).
-Without it (``entry = None``) the loop calls the law through its address: same results, bit
-for bit.
+Without it (``entry = None``), or when the class's ``law`` is not the law the entry was made
+for, the loop calls the law through its address: same results, bit for bit.
 
 Minimal example (a joint PD, τ = K_P (q_des − q) − K_D q̇, no state)::
 

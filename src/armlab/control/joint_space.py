@@ -82,7 +82,7 @@ def joint_pd_gravity_law(t, q, qd, z, h_e, params, tau_out, zdot_out, signals_ou
         signals_out[2 * n + i] = g[i]
 
 
-@law_entry
+@law_entry(joint_pd_gravity_law)
 def joint_pd_gravity_entry(cp, law, t, work, n, k, s):
     """(C1) as the simulation loop calls it (``Controller.entry``)."""
     q, qd, z, h_e, tau_out, zdot_out, signals_out = law_views(work, n, k, s)
@@ -153,7 +153,7 @@ def joint_inverse_dynamics_law(t, q, qd, z, h_e, params, tau_out, zdot_out, sign
         signals_out[3 * n + i] = y[i]
 
 
-@law_entry
+@law_entry(joint_inverse_dynamics_law)
 def joint_inverse_dynamics_entry(cp, law, t, work, n, k, s):
     """(C2) as the simulation loop calls it (``Controller.entry``)."""
     q, qd, z, h_e, tau_out, zdot_out, signals_out = law_views(work, n, k, s)

@@ -12,9 +12,9 @@ that unboxes its parameters (``rk4_run`` …), and the plant's dynamics can be a
 the signature of ``armlab.kernels.plant.forward_dynamics_packed`` (the general one, or a
 robot's closed form).
 
-A controller class may name its own entry (``Controller.entry``, written next to its law as
-``law(t, *law_views(work, n, k, s), cp[0])``): the law is then compiled inlined into it, and
-one stage passes the loop's scratch array and three sizes instead of seven arrays and the
+A controller class may name its own entry (``Controller.entry``, written next to its law with
+:func:`law_entry` and :func:`law_views`): the law is then compiled inlined into it, and one
+stage passes the loop's scratch array and three sizes instead of seven arrays and the
 parameter tuple by value, ~10% of a PRP run.  Without one, :func:`law_trampoline` calls the
 law through its address.
 
@@ -92,8 +92,8 @@ def work_size(n: int, k: int, s: int) -> int:
 
 
 def zdot_slice(n: int, k: int) -> slice:
-    """Where ż of the last stage lies in the scratch array (see :func:`scratch_views`)."""
-    start = 6 * n + k + 6
+    """Where ż of the last stage lies in the scratch array (see :func:`law_views`)."""
+    start = 3 * n + k + 6
     return slice(start, start + k)
 
 
@@ -225,31 +225,34 @@ def _addresses(law, env_law, cparams, eparams, forward_dynamics, kinetic_energy,
 
 
 @njit(cache=True, _nrt=False, inline="always")
+def law_views(work, n, k, s):
+    """(q, qd, z, h_e, tau_out, zdot_out, signals_out): the scratch views a law reads and
+    writes, in the order of its arguments around ``params``.
+
+    They lie first in ``work``, in this order, whatever the rest of the scratch layout: a
+    controller's own entry is compiled into its own module's cache, which numba does not
+    invalidate when this file changes, so what the entries inline is kept fixed (the law
+    ABI).  Changing it means changing the entries' modules too."""
+    f = np.float64
+    return (buffer_view(work, 0, n, f), buffer_view(work, n, n, f), buffer_view(work, 2 * n, k, f),
+            buffer_view(work, 2 * n + k, 6, f), buffer_view(work, 2 * n + k + 6, n, f),
+            buffer_view(work, 3 * n + k + 6, k, f), buffer_view(work, 3 * n + 2 * k + 6, s, f))
+
+
+@njit(cache=True, _nrt=False, inline="always")
 def scratch_views(work, n, k, s):
-    """The named scratch views of ``work`` (see :func:`work_size`)."""
+    """The named scratch views of ``work`` (see :func:`work_size`): the law's first
+    (:func:`law_views`), then the loop's own."""
     f = np.float64
     m = 2 * n + k
-    o = 0
-    q = buffer_view(work, o, n, f)
-    o += n
-    qd = buffer_view(work, o, n, f)
-    o += n
-    z = buffer_view(work, o, k, f)
-    o += k
-    tau_c = buffer_view(work, o, n, f)
-    o += n
+    q, qd, z, h_e, tau_c, zdot, sig = law_views(work, n, k, s)
+    o = 3 * n + 2 * k + 6 + s
     tau_a = buffer_view(work, o, n, f)
     o += n
     tau_d = buffer_view(work, o, n, f)
     o += n
     tau_p = buffer_view(work, o, n, f)
     o += n
-    h_e = buffer_view(work, o, 6, f)
-    o += 6
-    zdot = buffer_view(work, o, k, f)
-    o += k
-    sig = buffer_view(work, o, s, f)
-    o += s
     R_0e = buffer_view(work, o, (3, 3), f)
     o += 9
     p_0e = buffer_view(work, o, 3, f)
@@ -266,19 +269,18 @@ def scratch_views(work, n, k, s):
     return (q, qd, z, tau_c, tau_a, tau_d, tau_p, h_e, zdot, sig, R_0e, p_0e, v_e, qdd, xt, K, meas)
 
 
-@njit(cache=True, _nrt=False, inline="always")
-def law_views(work, n, k, s):
-    """(q, qd, z, h_e, tau_out, zdot_out, signals_out): the scratch views of ``work`` a law
-    reads and writes, in the order of its arguments around ``params``."""
-    sc = scratch_views(work, n, k, s)
-    return sc[0], sc[1], sc[2], sc[7], sc[3], sc[8], sc[9]
+def law_entry(law):
+    """Decorator of a controller's own entry (see the module docstring) for ``law``: compiled
+    like the laws, and marked with the law it inlines (the simulator uses it only with that
+    law)."""
+    def wrap(function):
+        entry = njit(cache=True, _nrt=False)(function)
+        entry.inlined_law = law
+        return entry
+    return wrap
 
 
-# A controller's own entry (see the module docstring) is compiled with this decorator.
-law_entry = njit(cache=True, _nrt=False)
-
-
-@law_entry
+@njit(cache=True, _nrt=False)
 def law_trampoline(cp, law, t, work, n, k, s):
     """The entry of a law without its own: the law at ``law`` called with the parameter
     tuple at ``cp`` (a CPointer to it) on the scratch views of ``work``."""
