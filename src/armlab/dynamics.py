@@ -42,6 +42,7 @@ from armlab.kernels.dynamics import (
     rnea_into,
 )
 from armlab.kernels.energy import potential_energy_kernel
+from armlab.kernels.indirect import COMPILE_LOCK
 from armlab.kernels.plant import (
     forward_dynamics_packed,
     kinetic_energy_packed,
@@ -98,10 +99,14 @@ def _entry(*argtypes):
 
 
 def _ready(dispatcher) -> None:
+    """Compile an entry's one signature (once).  Under the lock ``kernel_address`` takes to
+    lift the same compile ban: threads of a sweep may meet here."""
     if not dispatcher.overloads:
-        dispatcher.disable_compile(False)
-        dispatcher.compile(dispatcher.signature)
-        dispatcher.disable_compile()
+        with COMPILE_LOCK:
+            if not dispatcher.overloads:
+                dispatcher.disable_compile(False)
+                dispatcher.compile(dispatcher.signature)
+                dispatcher.disable_compile()
 
 
 @_entry(_V, _V, _V, _V, _V)
@@ -217,8 +222,9 @@ def _closed_form(robot: Robot, dynamics: str):
 def _python_entry(dispatcher, argtypes):
     """A generated kernel as a Python entry point of one signature (see the module docstring);
     compiled callers keep theirs (``kernel_address`` compiles what they need)."""
-    dispatcher.signature = argtypes
-    dispatcher._can_compile = False
+    with COMPILE_LOCK:
+        dispatcher.signature = argtypes
+        dispatcher._can_compile = False
     _ready(dispatcher)
     return dispatcher
 

@@ -88,9 +88,9 @@ _ADDRESSES: dict = {}
 # The same lookups by identity, for callers that pass the same argument-type tuple every time
 # (a module constant): hashing numba types costs microseconds a lookup, on every simulation.
 _BY_IDENTITY: dict = {}
-# Compiling a stated signature briefly lifts an entry point's compile ban (below); threads of
-# a parallel sweep may ask for addresses at the same time.
-_COMPILE_LOCK = threading.Lock()
+# Compiling a stated signature briefly lifts an entry point's compile ban (below, and
+# ``armlab.dynamics``); threads of a parallel sweep may ask for addresses at the same time.
+COMPILE_LOCK = threading.RLock()
 
 
 class IndirectCallError(ArmlabError, TypeError):
@@ -111,7 +111,7 @@ def kernel_address(dispatcher, argtypes: tuple, restype) -> int:
     address = _ADDRESSES.get(key)
     if address is None:
         argtypes = tuple(argtypes)
-        with _COMPILE_LOCK:
+        with COMPILE_LOCK:
             result = dispatcher.overloads.get(argtypes)
             if result is None:
                 # Entry points of armlab.dynamics refuse to compile from a call (one
