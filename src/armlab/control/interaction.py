@@ -309,10 +309,11 @@ class ForceControl(_ForceBase):
     ``inner="position"``: M_d ẍ_e + K_D ẋ_e + K_P x_e = K_P x_F — x_F is a *position* in Σ_0,
     so along directions where the environment gives no force (outside Image(K)) x_F stays 0
     and the end effector is driven towards Σ_0's origin: the drift the seed saw along z.
-    ``inner="velocity"``: M_d ẍ_e + K_D ẋ_e = K_P x_F — x_F is a velocity reference, directions
-    without force stay where they are.  f_e → f_d along Image(K) with K_I > 0 (position loop)
+    ``inner="velocity"``: M_d ẍ_e + K_D ẋ_e = K_P x_F — K_D⁻¹ K_P x_F is a velocity reference,
+    directions without force stay where they are.  f_e → f_d along Image(K) with K_I > 0 (position loop)
     or with K_F alone (velocity loop, its integrator is the environment's position).
-    ``kf`` [m/N | (m/s)/N], ``ki`` [m/(N·s)], ``kp`` [1/s²], ``kd`` [1/s], ``mass`` M_d.
+    ``kf`` [m/N] (x_F is a length with either loop), ``ki`` [m/(N·s)], ``kp`` [1/s²], ``kd``
+    [1/s], ``mass`` M_d.
 
     ``x_F0`` (3,) [m] starts the integrator at ∫(f_d − f_e) = K_I⁺ x_F0 (it must lie in the range
     of K_I), so that the force loop begins from a position instead of Σ_0's origin — e.g. the

@@ -248,7 +248,7 @@ def _error_scopes(run: _Run) -> list[Scope]:
             panel = Panel(_unit_label(label, unit))
             panel.curves.append((name, run.t, data[:, k], dict(color=ACTUAL, lw=1.3)))
             panel.hlines.append((0.0, dict(color="0.5", lw=0.8)))
-            panel.note = f"final {data[-1, k]:.3g} {unit}".strip()
+            panel.note = f"final {data[-1, k]:.4g} {unit}".strip()
             panel.note_at = _level(data[-1, k])
             panels.append(panel)
         run.used.add(name)
@@ -340,7 +340,7 @@ def _force_scopes(run: _Run) -> list[Scope]:
         panel.curves.append(("h_e", run.t, h[:, k], dict(color=ACTUAL, lw=1.4)))
         if has_ref:
             panel.curves.append((ref, run.t, desired[:, k], dict(color=DESIRED, lw=1.1, ls="--")))
-        panel.note = f"final {h[-1, k]:.3g} {unit}".strip()
+        panel.note = f"final {h[-1, k]:.4g} {unit}".strip()
         panel.note_at = _level(h[-1, k])
         if active:
             panel.zoom = _force_zoom(run.t, h[:, k], desired[:, k] if has_ref else None)
