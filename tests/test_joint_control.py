@@ -6,7 +6,7 @@ import pytest
 import armlab
 from armlab.control.base import ProtocolError
 from armlab.control.joint_space import JointInverseDynamics, JointPDGravity
-from armlab.references import Constant, ViaPoints
+from armlab.references import Constant, Sinusoid, ViaPoints
 from armlab.simulation import simulate
 
 PRP = armlab.load_robot("prp")
@@ -97,3 +97,26 @@ def test_gains_must_be_symmetric_positive_semidefinite():
         JointPDGravity(PRP, Constant(TARGET), 1.0, 1.0, "sometimes")
     with pytest.raises(ProtocolError, match="reference"):
         JointInverseDynamics(PRP, Constant([0, 0]), 1.0, 1.0)
+
+
+def test_computed_torque_with_diagonal_gains_skips_only_zero_terms():
+    from armlab.control.joint_space import joint_inverse_dynamics_law
+
+    controller = JointInverseDynamics.from_poles(PRP, Sinusoid([0.1, 1.0, 0.05], [0.05, 0.3, 0.02],
+                                                              [2.0, 1.0, 3.0]), [3.0, 5.0, 7.0])
+    params = controller.params()
+    assert params[5][0] == 1                                     # from_poles: diagonal gains
+    general = params[:5] + (np.array([0]),) + params[6:]
+    rng = np.random.default_rng(3)
+    for _ in range(20):
+        q, qd = rng.normal(size=(2, 3))
+        t = rng.uniform(0, 5)
+        outs = []
+        for p in (params, general):
+            tau, signals = np.zeros(3), np.zeros(12)
+            joint_inverse_dynamics_law(t, q, qd, np.zeros(0), np.zeros(6), p, tau, np.zeros(0), signals)
+            outs.append((tau, signals))
+        np.testing.assert_array_equal(outs[0][0], outs[1][0])
+        np.testing.assert_array_equal(outs[0][1], outs[1][1])
+    full = JointInverseDynamics(PRP, controller.reference, [[25, 1, 0], [1, 25, 0], [0, 0, 25]], 10.0)
+    assert full.params()[5][0] == 0                              # coupled gains: the full sum

@@ -135,13 +135,17 @@ class JointPDGravity(Controller):
 @law_kernel
 def joint_inverse_dynamics_law(t, q, qd, z, h_e, params, tau_out, zdot_out, signals_out):
     """(C2): τ = B̂(q) y + n̂(q, q̇), y = q̈_des + K_D (q̇_des − q̇) + K_P (q_des − q)."""
-    inverse_dynamics, model, ref, kp, kd, q_des, qd_des, qdd_des, y = params
+    inverse_dynamics, model, ref, kp, kd, diagonal, q_des, qd_des, qdd_des, y = params
     n = q.shape[0]
     reference_into(ref, t, q_des, qd_des, qdd_des)
     for i in range(n):
         acc = qdd_des[i]
-        for j in range(n):
-            acc += kd[i, j] * (qd_des[j] - qd[j]) + kp[i, j] * (q_des[j] - q[j])
+        if diagonal[0]:
+            # Diagonal gains (``from_poles``): the same sum without its zero terms.
+            acc += kd[i, i] * (qd_des[i] - qd[i]) + kp[i, i] * (q_des[i] - q[i])
+        else:
+            for j in range(n):
+                acc += kd[i, j] * (qd_des[j] - qd[j]) + kp[i, j] * (q_des[j] - q[j])
         y[i] = acc
     # B̂ y + n̂ is exactly the model's inverse dynamics at q̈ = y (no B): the model's closed
     # form or its RNEA, whichever ``dynamics`` chose (armlab.closed_form).
@@ -213,9 +217,11 @@ class JointInverseDynamics(Controller):
             kernel = inverse_dynamics_kernel(self.model, self.dynamics, "dynamics")
         except ClosedFormUnavailable as error:
             raise ProtocolError(f"dynamics: {error}") from None
+        diagonal = not (np.any(self.kp - np.diag(np.diag(self.kp)))
+                        or np.any(self.kd - np.diag(np.diag(self.kd))))
         return (kernel_address(kernel, _INVERSE_DYNAMICS_TYPES, types.none), packed_copy(self.model),
-                np.array(self.reference.data), self.kp, self.kd, np.zeros(n), np.zeros(n),
-                np.zeros(n), np.zeros(n))
+                np.array(self.reference.data), self.kp, self.kd, np.array([diagonal], dtype=np.int64),
+                np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n))
 
     def signals(self):
         return (Signal.joint("q_des", self.model, "position"), Signal.joint("q_err", self.model, "error"),
