@@ -419,7 +419,9 @@ def simulate_batch(plant, controllers, *, q0, qd0=None, t_final, dt, torque_limi
     The compiled loop releases the GIL (``nogil``), so a thread pool of ``workers`` threads
     (default: the number of cores) runs it truly in parallel without copying anything between
     processes.  Returns one :class:`SimulationResult` per controller, in order; a diverged run
-    has ``status == "diverged"`` (no exception).  Continuous control only.
+    has ``status == "diverged"`` (no exception).  Continuous control only.  The shared
+    arguments are checked (with the first controller) before any run starts; a later
+    controller that is not valid raises when its worker reaches it, and nothing is returned.
     """
     from concurrent.futures import ThreadPoolExecutor
 
