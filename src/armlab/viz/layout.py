@@ -530,11 +530,15 @@ def _signal_panels(run: _Run, name: str, data: np.ndarray, state: bool) -> list[
     controller state's by its own component names, e.g. ∫fx, ∫fy, ∫fz)."""
     labels, units = run.labels[name], run.units[name]
     panels = []
-    for unit, columns in _unit_blocks(units):
+    blocks = _unit_blocks(units)
+    for unit, columns in blocks:
         title = "controller state" if state else name
         if len(columns) == 1 and data.shape[1] > 1:
             # A unit's only column of a wider group (g_comp's θ2): the label names the joint.
             title = f"{title} {labels[columns[0]]}"
+        elif len(blocks) > 1:
+            # A group split by unit (a pose: x, y, z in m, φ1…φ3 in rad) names its components.
+            title = f"{title} ({', '.join(labels[k] for k in columns)})"
         panel = Panel(_unit_label(title, unit))
         for j, k in enumerate(columns):
             # A one-column signal is the signal itself (σ, not the name of its joint).
