@@ -428,7 +428,7 @@ def test_other_signals_one_panel_per_unit_and_the_state_by_its_component_names()
 
     signals = {s.name: s for s in scope_layout(_task_result({"type": "ForceControl"}))}["signals"]
     ylabels = [p.ylabel for p in signals.panels]
-    assert ylabels == ["x [m]", "x [rad]", "controller state [N·s]"]
+    assert ylabels == ["x (x, y, z) [m]", "x (φ1, φ2, φ3) [rad]", "controller state [N·s]"]
     assert [c[0] for c in signals.panels[1].curves] == ["φ1", "φ2", "φ3"]
     assert [c[0] for c in signals.panels[2].curves] == ["∫fx", "∫fy", "∫fz"]
     # Traces of one panel differ in dash and width, so one drawn over an equal one shows.
