@@ -536,8 +536,9 @@ def _signal_panels(run: _Run, name: str, data: np.ndarray, state: bool) -> list[
         if len(columns) == 1 and data.shape[1] > 1:
             # A unit's only column of a wider group (g_comp's θ2): the label names the joint.
             title = f"{title} {labels[columns[0]]}"
-        elif len(blocks) > 1:
-            # A group split by unit (a pose: x, y, z in m, φ1…φ3 in rad) names its components.
+        elif len(blocks) > 1 and not state and sum(len(labels[k]) for k in columns) <= 12:
+            # A signal split by unit (a pose: x, y, z in m, φ1…φ3 in rad) names its components
+            # when they are short (the legend names them too; the state's by its own labels).
             title = f"{title} ({', '.join(labels[k] for k in columns)})"
         panel = Panel(_unit_label(title, unit))
         for j, k in enumerate(columns):
