@@ -142,8 +142,6 @@ def admittance_law(t, q, qd, z, h_e, params, tau_out, zdot_out, signals_out):
     start = log_task_signals(ws, task, signals_out, log_pose_signals(ws, signals_out))
     for i in range(3):
         signals_out[start + i] = frame_t[i]
-    for i in range(6):
-        signals_out[start + 3 + i] = z[i]
 
 
 @dataclass(frozen=True)
@@ -154,8 +152,8 @@ class AdmittanceControl(TaskController):
     (6, 6) or diagonals, in Σ_d's axes) turns the measured wrench into the compliant frame Σ_t;
     the inner loop (``kp`` [1/s²], ``kd`` [1/s], (k, k)) makes Σ_e follow Σ_t with
     x̃̈_t + K_D x̃̇_t + K_P x̃_t = 0 on the task components.  The inner loop should be faster than
-    the admittance.  Signals: the pose signals relative to Σ_t, ``p_t`` (Σ_t's origin in Σ_0)
-    and ``z_tilde``.
+    the admittance.  Signals: the pose signals relative to Σ_t and ``p_t`` (Σ_t's origin in
+    Σ_0); z̃ and z̃̇ are the controller state z.
     """
 
     mass_t: object = 1.0
@@ -184,8 +182,7 @@ class AdmittanceControl(TaskController):
         return ("m",) * 3 + ("rad",) * 3 + ("m/s",) * 3 + ("rad/s",) * 3
 
     def signals(self) -> tuple[Signal, ...]:
-        return self._task_signals() + (Signal("p_t", ("x", "y", "z"), ("m",) * 3),
-                                       Signal("z_tilde", COMPONENT_LABELS, ("m",) * 3 + ("rad",) * 3))
+        return self._task_signals() + (Signal("p_t", ("x", "y", "z"), ("m",) * 3),)
 
 
 @njit(cache=True)
