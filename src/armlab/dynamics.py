@@ -92,18 +92,20 @@ def _entry(*argtypes):
         # A kernel shared with compiled callers (armlab.kernels.plant) is used as it is.
         dispatcher = function if hasattr(function, "py_func") else njit(cache=True, _nrt=False)(function)
         # What disable_compile() sets; it refuses a dispatcher without a signature yet.
-        dispatcher._can_compile = False
-        dispatcher.signature = argtypes
+        with COMPILE_LOCK:
+            dispatcher._can_compile = False
+            dispatcher.signature = argtypes
         return dispatcher
     return wrap
 
 
 def _ready(dispatcher) -> None:
-    """Compile an entry's one signature (once).  Under the lock ``kernel_address`` takes to
-    lift the same compile ban: threads of a sweep may meet here."""
-    if not dispatcher.overloads:
+    """Compile an entry's one signature (once; other signatures compiled for compiled callers
+    do not count).  Under the lock ``kernel_address`` takes to lift the same compile ban:
+    threads of a sweep may meet here."""
+    if dispatcher.signature not in dispatcher.overloads:
         with COMPILE_LOCK:
-            if not dispatcher.overloads:
+            if dispatcher.signature not in dispatcher.overloads:
                 dispatcher.disable_compile(False)
                 dispatcher.compile(dispatcher.signature)
                 dispatcher.disable_compile()
@@ -220,13 +222,11 @@ def _closed_form(robot: Robot, dynamics: str):
 
 
 def _python_entry(dispatcher, argtypes):
-    """A generated kernel as a Python entry point of one signature (see the module docstring);
-    compiled callers keep theirs (``kernel_address`` compiles what they need)."""
-    with COMPILE_LOCK:
-        dispatcher.signature = argtypes
-        dispatcher._can_compile = False
-    _ready(dispatcher)
-    return dispatcher
+    """A generated kernel as a Python entry point of one signature (:func:`_entry`), compiled
+    now; compiled callers keep theirs (``kernel_address`` compiles what they need)."""
+    entry = _entry(*argtypes)(dispatcher)
+    _ready(entry)
+    return entry
 
 
 def _vector(robot: Robot, value, name: str, size: int | None = None) -> np.ndarray:
@@ -269,6 +269,8 @@ def inverse_dynamics(robot: Robot, q, qd, qdd, h_e=None, gravity: bool = True,
     """
     packed, n = robot.__dict__.get(_CACHE_KEY) or _pack(robot)
     tau = np.empty(n)
+    # The robot's kept entries looked up inline (a helper call costs a tenth of a call);
+    # _closed_form makes them, and checks the choice, the first time.
     entries = False if dynamics is NUMERIC else (
         type(dynamics) is str and robot.__dict__.get(_CLOSED_FORM_KEYS.get(dynamics))
         or _closed_form(robot, dynamics))
