@@ -20,7 +20,14 @@ from armlab.dynamics import (
     inertia_matrix,
     inverse_dynamics,
 )
-from armlab.kernels.dynamics import make_workspace, rnea_into
+from armlab.kernels.dynamics import (
+    coriolis_matrix_into,
+    forward_dynamics_into,
+    gravity_into,
+    make_workspace,
+    mass_matrix_into,
+    rnea_into,
+)
 from armlab.kernels.packed import buffer_view
 
 
@@ -66,6 +73,92 @@ def test_every_input_kind_gives_the_kernel_result(prp):
     as_int = np.array([0, 1, 0])
     np.testing.assert_allclose(inverse_dynamics(prp, as_int, qd, qdd),
                                _kernel_tau(prp, as_int.astype(float), qd, qdd), rtol=1e-14)
+
+
+def _unaligned(values):
+    """``values`` as float64 at an address that is not a multiple of 8."""
+    raw = np.zeros(8 * len(values) + 1, dtype=np.uint8)
+    view = raw[1:].view(np.float64)
+    view[:] = values
+    assert not view.flags.aligned
+    return view
+
+
+def _lookalikes(v):
+    """Inputs equal to ``v`` that a call skipping numba's type check could misread: each must
+    be converted, never reinterpreted."""
+    strided = np.empty(2 * v.size)
+    strided[::2] = v
+    readonly = v.copy()
+    readonly.flags.writeable = False
+    return {
+        "contiguous": v,
+        "list": v.tolist(),
+        "read-only": readonly,
+        "strided": strided[::2],
+        "reversed twice": v[::-1].copy()[::-1],
+        "unaligned": _unaligned(v),
+        "big-endian": v.astype(">f8"),
+        "float32": v.astype(np.float32),
+        "int64": np.round(v * 10).astype(np.int64),
+        "uint64": np.round(np.abs(v) * 10).astype(np.uint64),
+    }
+
+
+def test_every_function_converts_lookalike_inputs(prp):
+    """Every public function and route, each vector argument in turn replaced by a lookalike,
+    against the kernels called with robot.arrays (the value converted by NumPy)."""
+    n = prp.n
+    q, qd, qdd = _state(n, 5)
+    h_e = np.array([1.0, -2.0, 0.5, 0.1, 0.0, -0.3])
+    ws, m = make_workspace(n), prp.arrays
+
+    def kernel(name, a):
+        a = [np.array(x, dtype=float) for x in a]
+        if name == "tau":
+            return _kernel_tau(prp, *a[:3])
+        if name == "tau_h":
+            return _kernel_tau(prp, *a)
+        out = np.empty((n, n) if name in ("B", "C") else n)
+        {"B": lambda: mass_matrix_into(m, ws, a[0], out),
+         "g": lambda: gravity_into(m, ws, a[0], out),
+         "C": lambda: coriolis_matrix_into(m, ws, a[0], a[1], out),
+         "qdd": lambda: forward_dynamics_into(m, ws, a[0], a[1], a[2], np.zeros(6), out),
+         "qdd_h": lambda: forward_dynamics_into(m, ws, *a, out)}[name]()
+        return out
+
+    calls = {
+        "tau": (lambda a: inverse_dynamics(prp, *a), [q, qd, qdd]),
+        "tau_h": (lambda a: inverse_dynamics(prp, *a), [q, qd, qdd, h_e]),
+        "B": (lambda a: inertia_matrix(prp, *a), [q]),
+        "g": (lambda a: gravity_torque(prp, *a), [q]),
+        "C": (lambda a: coriolis_matrix(prp, *a), [q, qd]),
+        "qdd": (lambda a: forward_dynamics(prp, *a), [q, qd, qdd]),
+        "qdd_h": (lambda a: forward_dynamics(prp, *a), [q, qd, qdd, h_e]),
+    }
+    for name, (call, args) in calls.items():
+        for position in range(len(args)):
+            for kind, value in _lookalikes(args[position]).items():
+                used = list(args)
+                used[position] = value
+                np.testing.assert_allclose(call(used), kernel(name, used), rtol=1e-13, atol=1e-13,
+                                           err_msg=f"{name}, argument {position}: {kind}")
+
+
+@pytest.mark.parametrize("shape", [(1, 3), (3, 1), (), (1, 1, 3)])
+def test_arrays_of_another_rank_are_refused_by_name(prp, shape):
+    """A float64 array of the right size but not 1-D never reaches the machine code (its
+    unboxing would write a shape of another rank)."""
+    bad = np.zeros(shape) if shape else np.float64(0.0)
+    z = np.zeros(prp.n)
+    for call, name in ((lambda: inertia_matrix(prp, bad), "q"), (lambda: gravity_torque(prp, bad), "q"),
+                       (lambda: inverse_dynamics(prp, z, bad, z), "qd"),
+                       (lambda: coriolis_matrix(prp, z, bad), "qd"),
+                       (lambda: forward_dynamics(prp, z, z, bad), "tau"),
+                       (lambda: inverse_dynamics(prp, z, z, z, h_e=np.zeros((1, 6))), "h_e"),
+                       (lambda: inertia_matrix(prp, bad, dynamics="closed_form"), "q")):
+        with pytest.raises(ValueError, match=name):
+            call()
 
 
 def test_outputs_are_fresh_and_calls_independent(prp):
@@ -152,3 +245,19 @@ def test_workspaces_made_in_compiled_code_after_public_calls(prp):
     ws = make_workspace(prp.n)
     del ws
     np.testing.assert_allclose(inverse_dynamics(prp, q, q, q)[0], expected, rtol=1e-14)
+
+
+def test_generated_entries_convert_lookalike_inputs():
+    """The generated module's entries are called the same way: a lookalike input gives the
+    result of its float64 copy, bit for bit."""
+    robot = armlab.load_robot("prp")
+    q, qd, qdd = _state(robot.n, 6)
+    cf = "closed_form"
+    for kind, value in _lookalikes(q).items():
+        clean = np.array(value, dtype=float)
+        np.testing.assert_array_equal(inertia_matrix(robot, value, dynamics=cf),
+                                      inertia_matrix(robot, clean, dynamics=cf), err_msg=kind)
+        np.testing.assert_array_equal(inverse_dynamics(robot, value, qd, qdd, dynamics=cf),
+                                      inverse_dynamics(robot, clean, qd, qdd, dynamics=cf), err_msg=kind)
+        np.testing.assert_array_equal(inverse_dynamics(robot, qd, qdd, value, dynamics=cf),
+                                      inverse_dynamics(robot, qd, qdd, clean, dynamics=cf), err_msg=kind)

@@ -14,18 +14,21 @@ Each function is a thin, checked wrapper of a compiled kernel of
 addresses over a packed robot (``armlab.kernels.plant``, the simulation loop).
 Every call returns a new array (never one shared with another call).
 
-Why the wrappers look the way they do (one call costs about a microsecond, so the Python side
-matters as much as the arithmetic):
+Why the wrappers look the way they do (one call costs a few tenths of a microsecond, so the
+Python side matters as much as the arithmetic):
 
 * the robot travels as **one** float64 array (its packed model, a scratch workspace and a zero
   wrench, see :func:`_pack`), kept in the robot's instance dictionary: unboxing an array
-  argument costs ~0.1 µs, and the robot and workspace hold 35 arrays;
-* each compiled entry has **one** signature (writeable, C-contiguous float64 vectors) and may
-  not compile another: the numba dispatcher's type check is then the whole input check of
-  the common call, and any other input (a list, another dtype or layout, a read-only array)
-  raises ``TypeError`` there, is converted (with a one-line error naming the field when it
-  cannot be) and tried again.  Wrong lengths are caught inside the entry, which returns a
-  status instead of touching memory.
+  argument costs ~25 ns, and the robot and workspace hold 35 arrays;
+* each compiled entry has **one** signature (C-contiguous float64 vectors) and may not compile
+  another.  The common call skips numba's dispatcher and calls that signature's machine code
+  directly (:func:`_direct`, ~0.1 µs less).  What the dispatcher's type check guaranteed is
+  then checked in two halves: here, that every vector the caller passed has ``ndim == 1`` and
+  dtype float64 (what unboxing needs to stay inside its own memory and to read the right
+  numbers); inside the entry, the length, the stride of 8 bytes and the alignment (it returns
+  a status instead of touching memory).  Any other input — a list, another dtype, a strided
+  or misaligned array — is converted (with a one-line error naming the field when it cannot
+  be) and tried again.
 """
 
 from __future__ import annotations
@@ -44,7 +47,6 @@ from armlab.kernels.dynamics import (
 from armlab.kernels.energy import potential_energy_kernel
 from armlab.kernels.indirect import COMPILE_LOCK
 from armlab.kernels.plant import (
-    forward_dynamics_packed,
     kinetic_energy_packed,
     pack_plant,
     unpack_plant,
@@ -59,7 +61,8 @@ class SingularInertiaError(ArmlabError):
 
 
 def _pack(robot: Robot):
-    """(packed, n) of ``robot`` (``armlab.kernels.plant``), made once and kept in the robot's
+    """(packed, n, (n, n), generated) of ``robot`` (``armlab.kernels.plant``; ``generated``
+    keeps the entries of its generated modules, see :func:`_closed_form`), made once and kept in the robot's
     instance dictionary next to ``robot.arrays`` (a plain attribute lookup; a weak-key
     dictionary costs more than the dynamics of a small arm).  The model part depends only on
     the immutable robot; every kernel writes the scratch it reads first, so sharing the
@@ -68,7 +71,8 @@ def _pack(robot: Robot):
     cached = robot.__dict__.get(_CACHE_KEY)
     if cached is None:
         packed = pack_plant(robot.arrays)
-        cached = robot.__dict__[_CACHE_KEY] = (packed, int(packed[0]))
+        n = int(packed[0])
+        cached = robot.__dict__[_CACHE_KEY] = (packed, n, (n, n), _Generated())
     return cached
 
 
@@ -111,64 +115,76 @@ def _ready(dispatcher) -> None:
                 dispatcher.disable_compile()
 
 
+@njit(cache=True, _nrt=False, inline="always")
+def _plain(v, n):
+    """``v`` has n items 8 bytes apart from an 8-byte aligned address: what the entries' one
+    signature (C-contiguous float64) assumes and a direct call (:func:`_direct`) has not yet
+    checked."""
+    return v.shape[0] == n and v.strides[0] == 8 and v.ctypes.data % 8 == 0
+
+
+# The entries return a status: 0 done, 1 an input is not a plain n-vector (nothing written).
 @_entry(_V, _V, _V, _V, _V)
 def _rnea_fast(packed, q, qd, qdd, out):
     n, m, ws, zero_wrench = _unpack(packed)
-    if q.shape[0] != n or qd.shape[0] != n or qdd.shape[0] != n or out.shape[0] != n:
-        return False
+    if not (_plain(q, n) and _plain(qd, n) and _plain(qdd, n)):
+        return 1
     rnea_into(m, ws, q, qd, qdd, 1.0, zero_wrench, out)
-    return True
+    return 0
 
 
 @_entry(_V, _V, _V, _V, types.float64, _V, _V)
 def _rnea_full(packed, q, qd, qdd, gravity_scale, h_e, out):
     n, m, ws, _ = _unpack(packed)
-    if (q.shape[0] != n or qd.shape[0] != n or qdd.shape[0] != n or h_e.shape[0] != 6
-            or out.shape[0] != n):
-        return False
+    if not (_plain(q, n) and _plain(qd, n) and _plain(qdd, n) and _plain(h_e, 6)):
+        return 1
     rnea_into(m, ws, q, qd, qdd, gravity_scale, h_e, out)
-    return True
+    return 0
 
 
 @_entry(_V, _V, _M)
 def _mass_matrix_entry(packed, q, out):
     n, m, ws, _ = _unpack(packed)
-    if q.shape[0] != n or out.shape[0] != n or out.shape[1] != n:
-        return False
+    if not _plain(q, n):
+        return 1
     mass_matrix_into(m, ws, q, out)
-    return True
+    return 0
 
 
 @_entry(_V, _V, _V)
 def _gravity_entry(packed, q, out):
     n, m, ws, _ = _unpack(packed)
-    if q.shape[0] != n or out.shape[0] != n:
-        return False
+    if not _plain(q, n):
+        return 1
     gravity_into(m, ws, q, out)
-    return True
+    return 0
 
 
 @_entry(_V, _V, _V, _M)
 def _coriolis_entry(packed, q, qd, out):
     n, m, ws, _ = _unpack(packed)
-    if q.shape[0] != n or qd.shape[0] != n or out.shape[0] != n or out.shape[1] != n:
-        return False
+    if not (_plain(q, n) and _plain(qd, n)):
+        return 1
     coriolis_matrix_into(m, ws, q, qd, out)
-    return True
-
-
-_forward_entry = _entry(_V, _V, _V, _V, _V, _V)(forward_dynamics_packed)
+    return 0
 
 
 @_entry(_V, _V, _V, _V, _V)
 def _forward_free(packed, q, qd, tau, qdd_out):
     """Forward dynamics without a wrench (the packed zero wrench: slicing it out of ``packed``
-    in Python cost a fifth of a PRP call); statuses of ``forward_dynamics_packed``, whose
-    entry may not compile (so it is not called here)."""
+    in Python cost a fifth of a PRP call); 2: B is not positive definite."""
     n, m, ws, zero_wrench = _unpack(packed)
-    if q.shape[0] != n or qd.shape[0] != n or tau.shape[0] != n or qdd_out.shape[0] != n:
+    if not (_plain(q, n) and _plain(qd, n) and _plain(tau, n)):
         return 1
     return 0 if forward_dynamics_into(m, ws, q, qd, tau, zero_wrench, qdd_out) else 2
+
+
+@_entry(_V, _V, _V, _V, _V, _V)
+def _forward_full(packed, q, qd, tau, h_e, qdd_out):
+    n, m, ws, _ = _unpack(packed)
+    if not (_plain(q, n) and _plain(qd, n) and _plain(tau, n) and _plain(h_e, 6)):
+        return 1
+    return 0 if forward_dynamics_into(m, ws, q, qd, tau, h_e, qdd_out) else 2
 
 
 _kinetic_entry = _entry(_V, _V, _V)(kinetic_energy_packed)
@@ -176,48 +192,83 @@ _kinetic_entry = _entry(_V, _V, _V)(kinetic_energy_packed)
 
 @_entry(_V, _V)
 def _potential_entry(packed, q):
-    """U, or NaN for a wrong length (told apart by the caller)."""
+    """U, or NaN when q is not a plain n-vector (told apart by the caller)."""
     n, m, ws, _ = _unpack(packed)
-    if q.shape[0] != n:
+    if not _plain(q, n):
         return np.nan
     return potential_energy_kernel(m, ws, q)
 
 
+def _machine_code(dispatcher):
+    """The machine code of an entry's one signature (compiled or loaded from the disk cache
+    first): what numba's dispatcher runs once its type check has picked the signature.  It
+    unboxes its arguments without checking their types; see the module docstring for what
+    the callers check instead."""
+    _ready(dispatcher)
+    return dispatcher.overloads[dispatcher.signature].entry_point
+
+
+def _direct(name: str, dispatcher):
+    """A stand-in for ``_machine_code(dispatcher)`` under the module-level ``name``: its first
+    call compiles the entry, puts the machine code in its own place (the wrappers look the
+    name up at each call) and runs it, so importing armlab compiles nothing."""
+    def first_call(*args):
+        code = _machine_code(dispatcher)
+        globals()[name] = code
+        return code(*args)
+    return first_call
+
+
+_rnea_fast_code = _direct("_rnea_fast_code", _rnea_fast)
+_rnea_full_code = _direct("_rnea_full_code", _rnea_full)
+_mass_matrix_code = _direct("_mass_matrix_code", _mass_matrix_entry)
+_gravity_code = _direct("_gravity_code", _gravity_entry)
+_coriolis_code = _direct("_coriolis_code", _coriolis_entry)
+_forward_free_code = _direct("_forward_free_code", _forward_free)
+_forward_full_code = _direct("_forward_full_code", _forward_full)
+_potential_code = _direct("_potential_code", _potential_entry)
+_empty = np.empty
+_F64 = np.dtype(np.float64)
+
+
 NUMERIC = "numeric"
-# Where a robot keeps the Python entries of its generated module, per ``dynamics`` choice.
-_CLOSED_FORM_KEYS = {"auto": "_dynamics_entries_auto", "closed_form": "_dynamics_entries_closed_form"}
+_GENERATED_CHOICES = ("auto", "closed_form")
 
 
-class _ProcessLocal(tuple):
-    """Compiled entries kept on a robot, valid in this process only: a pickled robot carries
-    None in their place and finds them again when it needs them."""
+class _Generated(dict):
+    """A robot's entries of its generated modules by ``dynamics`` choice, valid in this process
+    only (dispatchers of a generated module do not survive a pickle): a pickled robot carries
+    an empty one and finds the entries again when it needs them."""
 
     def __reduce__(self):
-        return (type(None), ())
+        return (type(self), ())
 
 
 def _closed_form(robot: Robot, dynamics: str):
-    """(inverse, mass, forward, zero wrench): Python entries of the module ``dynamics`` ("auto"
-    or "closed_form") chooses for ``robot`` (``armlab.closed_form``: generated, compiled and
-    checked on first use) and a wrench of zeros; False when the choice runs the numeric
-    kernels.  Kept in the robot's instance dictionary, like the packed robot."""
+    """(inverse, mass, forward, zero wrench) of the module ``dynamics`` ("auto" or
+    "closed_form") chooses for ``robot`` (``armlab.closed_form``: generated, compiled and
+    checked on first use): the machine code of its Python-only ``checked_inverse_dynamics``
+    and ``mass_matrix`` (called as the numeric entries are, statuses alike), the dispatcher of
+    its ``forward_dynamics`` (shared with compiled callers, so without the stride checks a
+    direct call needs) and a wrench of zeros; False when the choice runs the numeric kernels.
+    Kept with the packed robot."""
     if type(dynamics) is str and dynamics == NUMERIC:
         return False
-    key = _CLOSED_FORM_KEYS.get(dynamics) if type(dynamics) is str else None
-    if key is None:
+    if not (type(dynamics) is str and dynamics in _GENERATED_CHOICES):
         from armlab.closed_form import DYNAMICS_CHOICES
 
         raise ValueError(f"dynamics: {dynamics!r} is not one of {', '.join(DYNAMICS_CHOICES)}")
-    entries = robot.__dict__.get(key)
+    generated = _pack(robot)[3]
+    entries = generated.get(dynamics)
     if entries is None:
         from armlab.closed_form import chosen_module
 
         module = chosen_module(robot, dynamics)
-        entries = False if module is None else _ProcessLocal((
-            _python_entry(module.checked_inverse_dynamics, (_V,) * 5),
-            _python_entry(module.mass_matrix, (_V, _V, _M)),
+        entries = False if module is None else ((
+            _machine_code(_python_entry(module.checked_inverse_dynamics, (_V,) * 5)),
+            _machine_code(_python_entry(module.mass_matrix, (_V, _V, _M))),
             _python_entry(module.forward_dynamics, (_V,) * 6), np.zeros(6)))
-        robot.__dict__[key] = entries
+        generated[dynamics] = entries
     return entries
 
 
@@ -234,7 +285,7 @@ def _vector(robot: Robot, value, name: str, size: int | None = None) -> np.ndarr
     unless it already is one), or a one-line ValueError naming the field."""
     size = robot.n if size is None else size
     if not (type(value) is np.ndarray and value.dtype == np.float64 and value.flags.c_contiguous
-            and value.flags.writeable):
+            and value.flags.writeable and value.flags.aligned):
         try:
             value = np.array(value, dtype=np.float64)
         except (TypeError, ValueError) as error:
@@ -248,6 +299,15 @@ def _vector(robot: Robot, value, name: str, size: int | None = None) -> np.ndarr
 def _vectors(robot: Robot, **named) -> list[np.ndarray]:
     return [_vector(robot, value, name, 6 if name == "h_e" else None) for name, value in named.items()]
 
+
+# Each wrapper below inlines the same few steps (a helper call would cost a tenth of a call):
+#   1. the robot's packed array, made by _pack the first time;
+#   2. a fresh output;
+#   3. ``plain``: every vector passed is a 1-D float64 array (lists and scalars have no ndim);
+#   4. the machine code of the entry when plain; a nonzero status, or an input that is not
+#      plain, converts the inputs (_vectors raises the one-line error) and calls again.
+# The generated entries of ``dynamics="closed_form"``/``"auto"`` are looked up inline too;
+# _closed_form makes them, and checks the choice, the first time.
 
 def inverse_dynamics(robot: Robot, q, qd, qdd, h_e=None, gravity: bool = True,
                      dynamics: str = NUMERIC) -> np.ndarray:
@@ -267,38 +327,33 @@ def inverse_dynamics(robot: Robot, q, qd, qdd, h_e=None, gravity: bool = True,
         per call) or "auto" (the generated module up to ``AUTO_MAX_JOINTS`` joints).  The
         generated module serves calls without h_e and with gravity; others run the kernels.
     """
-    packed, n = robot.__dict__.get(_CACHE_KEY) or _pack(robot)
-    tau = np.empty(n)
-    # The robot's kept entries looked up inline (a helper call costs a tenth of a call);
-    # _closed_form makes them, and checks the choice, the first time.
-    entries = False if dynamics is NUMERIC else (
-        type(dynamics) is str and robot.__dict__.get(_CLOSED_FORM_KEYS.get(dynamics))
-        or _closed_form(robot, dynamics))
-    if entries and h_e is None and gravity:
-        try:
-            status = entries[0](packed, q, qd, qdd, tau)
-        except TypeError:
-            status = entries[0](packed, *_vectors(robot, q=q, qd=qd, qdd=qdd), tau)
-        if status:
-            _vectors(robot, q=q, qd=qd, qdd=qdd)
-        return tau
+    try:
+        packed, n, _, generated = robot.__dict__[_CACHE_KEY]
+    except KeyError:
+        packed, n, _, generated = _pack(robot)
+    tau = _empty(n)
+    try:
+        plain = q.ndim == qd.ndim == qdd.ndim == 1 and q.dtype is qd.dtype is qdd.dtype is _F64
+    except AttributeError:
+        plain = False
     if h_e is None and gravity:
-        try:
-            ok = _rnea_fast(packed, q, qd, qdd, tau)
-        except TypeError:
-            _ready(_rnea_fast)
-            ok = _rnea_fast(packed, *_vectors(robot, q=q, qd=qd, qdd=qdd), tau)
-    else:
-        h = packed[1 + n:7 + n] if h_e is None else h_e
-        scale = 1.0 if gravity else 0.0
-        try:
-            ok = _rnea_full(packed, q, qd, qdd, scale, h, tau)
-        except TypeError:
-            _ready(_rnea_full)
-            q, qd, qdd, h = _vectors(robot, q=q, qd=qd, qdd=qdd, h_e=h)
-            ok = _rnea_full(packed, q, qd, qdd, scale, h, tau)
-    if not ok:
-        _vectors(robot, q=q, qd=qd, qdd=qdd, h_e=np.zeros(6) if h_e is None else h_e)
+        call = _rnea_fast_code if dynamics is NUMERIC else (
+            type(dynamics) is str and generated.get(dynamics) or _closed_form(robot, dynamics)
+            or (_rnea_fast_code,))[0]
+        if not plain or call(packed, q, qd, qdd, tau):
+            call(packed, *_vectors(robot, q=q, qd=qd, qdd=qdd), tau)
+        return tau
+    if dynamics is not NUMERIC:
+        _closed_form(robot, dynamics)                   # checks the choice
+    h = packed[1 + n:7 + n] if h_e is None else h_e
+    scale = 1.0 if gravity else 0.0
+    try:
+        plain = plain and h.ndim == 1 and h.dtype is _F64
+    except AttributeError:
+        plain = False
+    if not plain or _rnea_full_code(packed, q, qd, qdd, scale, h, tau):
+        q, qd, qdd, h = _vectors(robot, q=q, qd=qd, qdd=qdd, h_e=h)
+        _rnea_full_code(packed, q, qd, qdd, scale, h, tau)
     return tau
 
 
@@ -306,26 +361,20 @@ def inertia_matrix(robot: Robot, q, dynamics: str = NUMERIC) -> np.ndarray:
     """Joint-space inertia matrix B(q), (n, n), symmetric positive definite, rotors included
     (D2, D3), by the composite-rigid-body algorithm (``dynamics`` as in
     :func:`inverse_dynamics`).  Units kg | kg·m | kg·m²."""
-    packed, n = robot.__dict__.get(_CACHE_KEY) or _pack(robot)
-    B = np.empty((n, n))
-    entries = False if dynamics is NUMERIC else (
-        type(dynamics) is str and robot.__dict__.get(_CLOSED_FORM_KEYS.get(dynamics))
-        or _closed_form(robot, dynamics))
-    if entries:
-        try:
-            status = entries[1](packed, q, B)
-        except TypeError:
-            status = entries[1](packed, _vector(robot, q, "q"), B)
-        if status:
-            _vector(robot, q, "q")
-        return B
     try:
-        ok = _mass_matrix_entry(packed, q, B)
-    except TypeError:
-        _ready(_mass_matrix_entry)
-        ok = _mass_matrix_entry(packed, _vector(robot, q, "q"), B)
-    if not ok:
-        _vector(robot, q, "q")
+        packed, _, square, generated = robot.__dict__[_CACHE_KEY]
+    except KeyError:
+        packed, _, square, generated = _pack(robot)
+    B = _empty(square)
+    try:
+        plain = q.ndim == 1 and q.dtype is _F64
+    except AttributeError:
+        plain = False
+    call = _mass_matrix_code if dynamics is NUMERIC else (
+        type(dynamics) is str and generated.get(dynamics) or _closed_form(robot, dynamics)
+        or (None, _mass_matrix_code))[1]
+    if not plain or call(packed, q, B):
+        call(packed, _vector(robot, q, "q"), B)
     return B
 
 
@@ -336,29 +385,33 @@ def coriolis_matrix(robot: Robot, q, qd) -> np.ndarray:
 
     so that Ḃ − 2C is skew-symmetric (Siciliano et al. (7.49)).
     """
-    packed, n = robot.__dict__.get(_CACHE_KEY) or _pack(robot)
-    C = np.empty((n, n))
     try:
-        ok = _coriolis_entry(packed, q, qd, C)
-    except TypeError:
-        _ready(_coriolis_entry)
-        ok = _coriolis_entry(packed, *_vectors(robot, q=q, qd=qd), C)
-    if not ok:
-        _vectors(robot, q=q, qd=qd)
+        packed, _, square, _ = robot.__dict__[_CACHE_KEY]
+    except KeyError:
+        packed, _, square, _ = _pack(robot)
+    C = _empty(square)
+    try:
+        plain = q.ndim == qd.ndim == 1 and q.dtype is qd.dtype is _F64
+    except AttributeError:
+        plain = False
+    if not plain or _coriolis_code(packed, q, qd, C):
+        _coriolis_code(packed, *_vectors(robot, q=q, qd=qd), C)
     return C
 
 
 def gravity_torque(robot: Robot, q) -> np.ndarray:
     """Gravity torques g(q) = (∂U/∂q)ᵀ, (n,) [N | N·m], with U of (D7)."""
-    packed, n = robot.__dict__.get(_CACHE_KEY) or _pack(robot)
-    g = np.empty(n)
     try:
-        ok = _gravity_entry(packed, q, g)
-    except TypeError:
-        _ready(_gravity_entry)
-        ok = _gravity_entry(packed, _vector(robot, q, "q"), g)
-    if not ok:
-        _vector(robot, q, "q")
+        packed, n, _, _ = robot.__dict__[_CACHE_KEY]
+    except KeyError:
+        packed, n, _, _ = _pack(robot)
+    g = _empty(n)
+    try:
+        plain = q.ndim == 1 and q.dtype is _F64
+    except AttributeError:
+        plain = False
+    if not plain or _gravity_code(packed, q, g):
+        _gravity_code(packed, _vector(robot, q, "q"), g)
     return g
 
 
@@ -371,35 +424,39 @@ def forward_dynamics(robot: Robot, q, qd, tau, h_e=None, dynamics: str = NUMERIC
     :func:`inverse_dynamics`, and ``dynamics`` (a generated module serves every call).  Raises
     :class:`SingularInertiaError` if B is not positive definite.
     """
-    packed, n = robot.__dict__.get(_CACHE_KEY) or _pack(robot)
-    qdd = np.empty(n)
+    try:
+        packed, n, _, generated = robot.__dict__[_CACHE_KEY]
+    except KeyError:
+        packed, n, _, generated = _pack(robot)
+    qdd = _empty(n)
     entries = False if dynamics is NUMERIC else (
-        type(dynamics) is str and robot.__dict__.get(_CLOSED_FORM_KEYS.get(dynamics))
-        or _closed_form(robot, dynamics))
+        type(dynamics) is str and generated.get(dynamics) or _closed_form(robot, dynamics))
     if entries:
+        # The generated forward dynamics is shared with compiled callers: its dispatcher's
+        # type check stands in for the stride checks it does not make.
         h = entries[3] if h_e is None else h_e
         try:
             status = entries[2](packed, q, qd, tau, h, qdd)
         except TypeError:
             q, qd, tau, h = _vectors(robot, q=q, qd=qd, tau=tau, h_e=h)
             status = entries[2](packed, q, qd, tau, h, qdd)
-    elif h_e is None:
-        try:
-            status = _forward_free(packed, q, qd, tau, qdd)
-        except TypeError:
-            _ready(_forward_free)
-            q, qd, tau = _vectors(robot, q=q, qd=qd, tau=tau)
-            status = _forward_free(packed, q, qd, tau, qdd)
+        if status == 1:
+            _vectors(robot, q=q, qd=qd, tau=tau, h_e=h)
     else:
-        h = h_e
         try:
-            status = _forward_entry(packed, q, qd, tau, h, qdd)
-        except TypeError:
-            _ready(_forward_entry)
-            q, qd, tau, h = _vectors(robot, q=q, qd=qd, tau=tau, h_e=h)
-            status = _forward_entry(packed, q, qd, tau, h, qdd)
-    if status == 1:
-        _vectors(robot, q=q, qd=qd, tau=tau, h_e=np.zeros(6) if h_e is None else h_e)
+            plain = q.ndim == qd.ndim == tau.ndim == 1 and q.dtype is qd.dtype is tau.dtype is _F64
+            if h_e is not None:
+                plain = plain and h_e.ndim == 1 and h_e.dtype is _F64
+        except AttributeError:
+            plain = False
+        if h_e is None:
+            status = _forward_free_code(packed, q, qd, tau, qdd) if plain else 1
+            if status == 1:
+                status = _forward_free_code(packed, *_vectors(robot, q=q, qd=qd, tau=tau), qdd)
+        else:
+            status = _forward_full_code(packed, q, qd, tau, h_e, qdd) if plain else 1
+            if status == 1:
+                status = _forward_full_code(packed, *_vectors(robot, q=q, qd=qd, tau=tau, h_e=h_e), qdd)
     if status == 2:
         raise SingularInertiaError(f"robot {robot.name!r}: inertia matrix B(q) is not positive definite")
     return qdd
@@ -410,7 +467,7 @@ def kinetic_energy(robot: Robot, q, qd) -> float:
 
         T = Σ_i ½ m_i ‖ṗ_Ci‖² + ½ ω_iᵀ I_Ci ω_i + ½ I_mi (z_miᵀ ω_{i−1} + k_ri q̇_i)²       (D6)
     """
-    packed, _ = robot.__dict__.get(_CACHE_KEY) or _pack(robot)
+    packed = _pack(robot)[0]
     _ready(_kinetic_entry)
     q, qd = _vectors(robot, q=q, qd=qd)
     return float(_kinetic_entry(packed, q, qd))
@@ -421,6 +478,5 @@ def potential_energy(robot: Robot, q) -> float:
 
     Rotor masses are part of the link inertials, so this is the whole potential energy.
     """
-    packed, _ = robot.__dict__.get(_CACHE_KEY) or _pack(robot)
-    _ready(_potential_entry)
-    return float(_potential_entry(packed, _vector(robot, q, "q")))
+    packed = _pack(robot)[0]
+    return float(_potential_code(packed, _vector(robot, q, "q")))
