@@ -26,9 +26,9 @@ import numpy as np
 from numba import njit
 
 from armlab.kernels.dynamics import (
-    forward_dynamics_into,
+    forward_dynamics_inline,
     kernel,
-    rnea_into,
+    rnea_inline,
     workspace_from_buffer,
     workspace_size,
 )
@@ -65,7 +65,7 @@ def inverse_dynamics_packed(packed, q, qd, qdd, tau_out):
     """τ = B q̈ + C q̇ + F_v q̇ + F_s sgn q̇ + g (D1, h_e = 0) by the RNEA; lengths unchecked
     (compiled callers pass n-vectors)."""
     n, m, ws, zero_wrench = unpack_plant(packed)
-    rnea_into(m, ws, q, qd, qdd, 1.0, zero_wrench, tau_out)
+    rnea_inline(m, ws, q, qd, qdd, 1.0, zero_wrench, tau_out)
 
 
 @kernel
@@ -76,7 +76,7 @@ def forward_dynamics_packed(packed, q, qd, tau, h_e, qdd_out):
     if (q.shape[0] != n or qd.shape[0] != n or tau.shape[0] != n or h_e.shape[0] != 6
             or qdd_out.shape[0] != n):
         return 1
-    return 0 if forward_dynamics_into(m, ws, q, qd, tau, h_e, qdd_out) else 2
+    return 0 if forward_dynamics_inline(m, ws, q, qd, tau, h_e, qdd_out) else 2
 
 
 @kernel
