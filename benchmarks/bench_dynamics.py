@@ -62,6 +62,22 @@ def _best(f, calls):
     return best / calls
 
 
+def _best_interleaved(functions, calls=2000, rounds=40):
+    """Best time per call of each function, the functions taking turns (``rounds`` rounds of
+    ``calls`` calls each): the machine's pace drifts by 10–20 % within minutes, and timing
+    one function after another would hand that drift to the ratios."""
+    for f in functions:
+        f()
+    best = [np.inf] * len(functions)
+    for _ in range(rounds):
+        for k, f in enumerate(functions):
+            start = time.thread_time()
+            for _ in range(calls):
+                f()
+            best[k] = min(best[k], time.thread_time() - start)
+    return [b / calls for b in best]
+
+
 def _best_batch(f, states):
     f()
     best = np.inf
@@ -172,7 +188,7 @@ def per_call_rows():
             for value in (ours, cf):
                 if not np.allclose(value, reference, rtol=1e-9, atol=1e-9):
                     raise AssertionError(f"{name} {algorithm}: armlab and Pinocchio disagree")
-            a, c, p = _best(general, 20000), _best(generated, 20000), _best(theirs, 20000)
+            a, c, p = _best_interleaved((general, generated, theirs))
             rows.append((name, algorithm, a * 1e6, c * 1e6, p * 1e6, a / p, c / p))
     return rows
 

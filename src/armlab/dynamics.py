@@ -72,7 +72,7 @@ def _pack(robot: Robot):
     if cached is None:
         packed = pack_plant(robot.arrays)
         n = int(packed[0])
-        cached = robot.__dict__[_CACHE_KEY] = (packed, n, (n, n), _Generated())
+        cached = robot.__dict__[_CACHE_KEY] = _Cache((packed, n, (n, n), {}))
     return cached
 
 
@@ -235,13 +235,14 @@ NUMERIC = "numeric"
 _GENERATED_CHOICES = ("auto", "closed_form")
 
 
-class _Generated(dict):
-    """A robot's entries of its generated modules by ``dynamics`` choice, valid in this process
-    only (dispatchers of a generated module do not survive a pickle): a pickled robot carries
-    an empty one and finds the entries again when it needs them."""
+class _Cache(tuple):
+    """(packed, n, (n, n), generated) kept on a robot.  ``generated`` maps a ``dynamics`` choice
+    to the entries of the robot's generated module (False: the numeric kernels), valid in this
+    process only (machine code does not survive a pickle): a pickled robot carries an empty
+    one and finds the entries again when it needs them."""
 
     def __reduce__(self):
-        return (type(self), ())
+        return (type(self), ((self[0], self[1], self[2], {}),))
 
 
 def _closed_form(robot: Robot, dynamics: str):
@@ -306,7 +307,8 @@ def _vectors(robot: Robot, **named) -> list[np.ndarray]:
 #   3. ``plain``: every vector passed is a 1-D float64 array (lists and scalars have no ndim);
 #   4. the machine code of the entry when plain; a nonzero status, or an input that is not
 #      plain, converts the inputs (_vectors raises the one-line error) and calls again.
-# The generated entries of ``dynamics="closed_form"``/``"auto"`` are looked up inline too;
+# The generated entries of ``dynamics="closed_form"``/``"auto"`` are looked up inline too
+# (forward_dynamics excepted: its generated entry is called through its dispatcher anyway);
 # _closed_form makes them, and checks the choice, the first time.
 
 def inverse_dynamics(robot: Robot, q, qd, qdd, h_e=None, gravity: bool = True,
@@ -337,9 +339,13 @@ def inverse_dynamics(robot: Robot, q, qd, qdd, h_e=None, gravity: bool = True,
     except AttributeError:
         plain = False
     if h_e is None and gravity:
-        call = _rnea_fast_code if dynamics is NUMERIC else (
-            type(dynamics) is str and generated.get(dynamics) or _closed_form(robot, dynamics)
-            or (_rnea_fast_code,))[0]
+        if dynamics is NUMERIC:
+            call = _rnea_fast_code
+        else:
+            try:
+                call = generated[dynamics][0]
+            except (KeyError, TypeError):       # not made yet, the numeric kernels, no choice
+                call = (_closed_form(robot, dynamics) or (_rnea_fast_code,))[0]
         if not plain or call(packed, q, qd, qdd, tau):
             call(packed, *_vectors(robot, q=q, qd=qd, qdd=qdd), tau)
         return tau
@@ -370,9 +376,13 @@ def inertia_matrix(robot: Robot, q, dynamics: str = NUMERIC) -> np.ndarray:
         plain = q.ndim == 1 and q.dtype is _F64
     except AttributeError:
         plain = False
-    call = _mass_matrix_code if dynamics is NUMERIC else (
-        type(dynamics) is str and generated.get(dynamics) or _closed_form(robot, dynamics)
-        or (None, _mass_matrix_code))[1]
+    if dynamics is NUMERIC:
+        call = _mass_matrix_code
+    else:
+        try:
+            call = generated[dynamics][1]
+        except (KeyError, TypeError):           # not made yet, the numeric kernels, no choice
+            call = (_closed_form(robot, dynamics) or (None, _mass_matrix_code))[1]
     if not plain or call(packed, q, B):
         call(packed, _vector(robot, q, "q"), B)
     return B
@@ -429,8 +439,7 @@ def forward_dynamics(robot: Robot, q, qd, tau, h_e=None, dynamics: str = NUMERIC
     except KeyError:
         packed, n, _, generated = _pack(robot)
     qdd = _empty(n)
-    entries = False if dynamics is NUMERIC else (
-        type(dynamics) is str and generated.get(dynamics) or _closed_form(robot, dynamics))
+    entries = False if dynamics is NUMERIC else _closed_form(robot, dynamics)
     if entries:
         # The generated forward dynamics is shared with compiled callers: its dispatcher's
         # type check stands in for the stride checks it does not make.

@@ -387,49 +387,75 @@ def _crba_body(m, ws, n, B_out):
         mass = m.mass[i]
         cx, cy, cz = m.com[i, 0], m.com[i, 1], m.com[i, 2]
         mc[i] = mass
-        hc[i, 0], hc[i, 1], hc[i, 2] = mass * cx, mass * cy, mass * cz
-        # Steiner to J_i's origin: I_O = I_C + m (cᵀc 1 − c cᵀ)
-        cc = cx * cx + cy * cy + cz * cz
-        for r in range(3):
-            for c in range(3):
-                Ic[i, r, c] = m.inertia[i, r, c] - mass * m.com[i, r] * m.com[i, c]
-            Ic[i, r, r] += mass * cc
-        if i + 1 < n:
+        hx, hy, hz = mass * cx, mass * cy, mass * cz
+        hc[i, 0], hc[i, 1], hc[i, 2] = hx, hy, hz
+        # Steiner to J_i's origin: I_O = I_C + m (cᵀc 1 − c cᵀ), symmetric (six entries).
+        I, O = m.inertia[i], Ic[i]
+        o00 = I[0, 0] + hy * cy + hz * cz
+        o11 = I[1, 1] + hx * cx + hz * cz
+        o22 = I[2, 2] + hx * cx + hy * cy
+        o01 = I[0, 1] - hx * cy
+        o02 = I[0, 2] - hx * cz
+        o12 = I[1, 2] - hy * cz
+        if i + 1 < n and m.rotor_inertia[i + 1] != 0.0:
             # Rotor i+1 turns with link i about its own axis too (D3).
             Im = m.rotor_inertia[i + 1]
-            for r in range(3):
-                for c in range(3):
-                    Ic[i, r, c] += Im * m.tree_R[i + 1, r, 2] * m.tree_R[i + 1, c, 2]
+            zx, zy, zz = m.tree_R[i + 1, 0, 2], m.tree_R[i + 1, 1, 2], m.tree_R[i + 1, 2, 2]
+            o00 += Im * zx * zx
+            o11 += Im * zy * zy
+            o22 += Im * zz * zz
+            o01 += Im * zx * zy
+            o02 += Im * zx * zz
+            o12 += Im * zy * zz
+        O[0, 0], O[1, 1], O[2, 2] = o00, o11, o22
+        O[0, 1], O[1, 0], O[0, 2], O[2, 0], O[1, 2], O[2, 1] = o01, o01, o02, o02, o12, o12
     for i in range(n - 1, 0, -1):
+        # Composite i moved into J_{i−1}.  Every input is read into locals before any
+        # output is written: Ic, R and p are views of one buffer, so the compiler must
+        # otherwise reload the inputs after each store (that doubled this loop's time).
         Rc = R[i]
+        r00, r01, r02 = Rc[0, 0], Rc[0, 1], Rc[0, 2]
+        r10, r11, r12 = Rc[1, 0], Rc[1, 1], Rc[1, 2]
+        r20, r21, r22 = Rc[2, 0], Rc[2, 1], Rc[2, 2]
+        I = Ic[i]
+        i00, i01, i02 = I[0, 0], I[0, 1], I[0, 2]
+        i11, i12, i22 = I[1, 1], I[1, 2], I[2, 2]
         M = mc[i]
         px, py, pz = p[i, 0], p[i, 1], p[i, 2]
+        h0, h1, h2 = hc[i, 0], hc[i, 1], hc[i, 2]
         # Rh
-        hx = Rc[0, 0] * hc[i, 0] + Rc[0, 1] * hc[i, 1] + Rc[0, 2] * hc[i, 2]
-        hy = Rc[1, 0] * hc[i, 0] + Rc[1, 1] * hc[i, 1] + Rc[1, 2] * hc[i, 2]
-        hz = Rc[2, 0] * hc[i, 0] + Rc[2, 1] * hc[i, 1] + Rc[2, 2] * hc[i, 2]
-        # R I Rᵀ
-        for r in range(3):
-            t0 = Rc[r, 0] * Ic[i, 0, 0] + Rc[r, 1] * Ic[i, 1, 0] + Rc[r, 2] * Ic[i, 2, 0]
-            t1 = Rc[r, 0] * Ic[i, 0, 1] + Rc[r, 1] * Ic[i, 1, 1] + Rc[r, 2] * Ic[i, 2, 1]
-            t2 = Rc[r, 0] * Ic[i, 0, 2] + Rc[r, 1] * Ic[i, 1, 2] + Rc[r, 2] * Ic[i, 2, 2]
-            for c in range(3):
-                Ic[i - 1, r, c] += t0 * Rc[c, 0] + t1 * Rc[c, 1] + t2 * Rc[c, 2]
+        hx = r00 * h0 + r01 * h1 + r02 * h2
+        hy = r10 * h0 + r11 * h1 + r12 * h2
+        hz = r20 * h0 + r21 * h1 + r22 * h2
+        # T = R I, then the six entries of the symmetric T Rᵀ = R I Rᵀ.
+        t00 = r00 * i00 + r01 * i01 + r02 * i02
+        t01 = r00 * i01 + r01 * i11 + r02 * i12
+        t02 = r00 * i02 + r01 * i12 + r02 * i22
+        t10 = r10 * i00 + r11 * i01 + r12 * i02
+        t11 = r10 * i01 + r11 * i11 + r12 * i12
+        t12 = r10 * i02 + r11 * i12 + r12 * i22
+        t20 = r20 * i00 + r21 * i01 + r22 * i02
+        t21 = r20 * i01 + r21 * i11 + r22 * i12
+        t22 = r20 * i02 + r21 * i12 + r22 * i22
         # −S(p)S(u) − S(u)S(p) = 2(pᵀu) 1 − p uᵀ − u pᵀ with u = Rh + M p/2 covers the M S(p)² term.
         ux, uy, uz = hx + 0.5 * M * px, hy + 0.5 * M * py, hz + 0.5 * M * pz
-        pu = px * ux + py * uy + pz * uz
-        Ic[i - 1, 0, 0] += 2.0 * pu - 2.0 * px * ux
-        Ic[i - 1, 1, 1] += 2.0 * pu - 2.0 * py * uy
-        Ic[i - 1, 2, 2] += 2.0 * pu - 2.0 * pz * uz
-        o01 = -(px * uy + ux * py)
-        o02 = -(px * uz + ux * pz)
-        o12 = -(py * uz + uy * pz)
-        Ic[i - 1, 0, 1] += o01
-        Ic[i - 1, 1, 0] += o01
-        Ic[i - 1, 0, 2] += o02
-        Ic[i - 1, 2, 0] += o02
-        Ic[i - 1, 1, 2] += o12
-        Ic[i - 1, 2, 1] += o12
+        pu2 = 2.0 * (px * ux + py * uy + pz * uz)
+        s00 = t00 * r00 + t01 * r01 + t02 * r02 + pu2 - 2.0 * px * ux
+        s11 = t10 * r10 + t11 * r11 + t12 * r12 + pu2 - 2.0 * py * uy
+        s22 = t20 * r20 + t21 * r21 + t22 * r22 + pu2 - 2.0 * pz * uz
+        s01 = t00 * r10 + t01 * r11 + t02 * r12 - (px * uy + ux * py)
+        s02 = t00 * r20 + t01 * r21 + t02 * r22 - (px * uz + ux * pz)
+        s12 = t10 * r20 + t11 * r21 + t12 * r22 - (py * uz + uy * pz)
+        P = Ic[i - 1]
+        P[0, 0] += s00
+        P[1, 1] += s11
+        P[2, 2] += s22
+        P[0, 1] += s01
+        P[1, 0] += s01
+        P[0, 2] += s02
+        P[2, 0] += s02
+        P[1, 2] += s12
+        P[2, 1] += s12
         hc[i - 1, 0] += hx + M * px
         hc[i - 1, 1] += hy + M * py
         hc[i - 1, 2] += hz + M * pz
