@@ -62,17 +62,32 @@ class SingularInertiaError(ArmlabError):
 
 def _pack(robot: Robot):
     """(packed, n, (n, n), generated) of ``robot`` (``armlab.kernels.plant``; ``generated``
-    keeps the entries of its generated modules, see :func:`_closed_form`), made once and kept in the robot's
-    instance dictionary next to ``robot.arrays`` (a plain attribute lookup; a weak-key
-    dictionary costs more than the dynamics of a small arm).  The model part depends only on
-    the immutable robot; every kernel writes the scratch it reads first, so sharing the
-    workspace between calls (serialised by the GIL, which the kernels keep) cannot change a
-    result."""
+    keeps the entries of its generated modules, see :func:`_closed_form`), made once and kept in
+    the robot's instance dictionary next to ``robot.arrays`` (a weak-key dictionary costs more
+    than the dynamics of a small arm); the wrappers keep the last robot's at hand (``_LAST``).
+    The model part depends only on the immutable robot; every kernel writes the scratch it
+    reads first, so sharing the workspace between calls (serialised by the GIL, which the
+    kernels keep) cannot change a result."""
     cached = robot.__dict__.get(_CACHE_KEY)
     if cached is None:
         packed = pack_plant(robot.arrays)
         n = int(packed[0])
-        cached = robot.__dict__[_CACHE_KEY] = _Cache((packed, n, (n, n), {}))
+        cached = robot.__dict__[_CACHE_KEY] = (packed, n, (n, n), _Generated())
+    return cached
+
+
+# The robot of the last wrapper call with its (packed, n, (n, n), generated), one tuple so that
+# threads always read a consistent pair: comparing against it costs ~10 ns, the robot's own
+# lookup (an attribute of its instance dictionary) ~40 ns, a tenth of a PRP call.  It keeps
+# that one robot alive.
+_LAST = (None, None, 0, (0, 0), None)
+
+
+def _use(robot: Robot):
+    """``_pack(robot)``, remembered as the last robot used."""
+    global _LAST
+    cached = _pack(robot)
+    _LAST = (robot, *cached)
     return cached
 
 
@@ -235,14 +250,14 @@ NUMERIC = "numeric"
 _GENERATED_CHOICES = ("auto", "closed_form")
 
 
-class _Cache(tuple):
-    """(packed, n, (n, n), generated) kept on a robot.  ``generated`` maps a ``dynamics`` choice
-    to the entries of the robot's generated module (False: the numeric kernels), valid in this
-    process only (machine code does not survive a pickle): a pickled robot carries an empty
-    one and finds the entries again when it needs them."""
+class _Generated(dict):
+    """A robot's entries of its generated modules by ``dynamics`` choice (False: the numeric
+    kernels), valid in this process only (machine code does not survive a pickle): a pickled
+    robot carries an empty one and finds the entries again when it needs them.  (The packed
+    robot around it stays a plain tuple: unpacking a tuple subclass costs 27 ns more.)"""
 
     def __reduce__(self):
-        return (type(self), ((self[0], self[1], self[2], {}),))
+        return (type(self), ())
 
 
 def _closed_form(robot: Robot, dynamics: str):
@@ -302,7 +317,7 @@ def _vectors(robot: Robot, **named) -> list[np.ndarray]:
 
 
 # Each wrapper below inlines the same few steps (a helper call would cost a tenth of a call):
-#   1. the robot's packed array, made by _pack the first time;
+#   1. the robot's packed array: the last robot's (_LAST), else found or made by _use;
 #   2. a fresh output;
 #   3. ``plain``: every vector passed is a 1-D float64 array (lists and scalars have no ndim);
 #   4. the machine code of the entry when plain; a nonzero status, or an input that is not
@@ -329,10 +344,9 @@ def inverse_dynamics(robot: Robot, q, qd, qdd, h_e=None, gravity: bool = True,
         per call) or "auto" (the generated module up to ``AUTO_MAX_JOINTS`` joints).  The
         generated module serves calls without h_e and with gravity; others run the kernels.
     """
-    try:
-        packed, n, _, generated = robot.__dict__[_CACHE_KEY]
-    except KeyError:
-        packed, n, _, generated = _pack(robot)
+    last, packed, n, _, generated = _LAST
+    if last is not robot:
+        packed, n, _, generated = _use(robot)
     tau = _empty(n)
     try:
         plain = q.ndim == qd.ndim == qdd.ndim == 1 and q.dtype is qd.dtype is qdd.dtype is _F64
@@ -367,10 +381,9 @@ def inertia_matrix(robot: Robot, q, dynamics: str = NUMERIC) -> np.ndarray:
     """Joint-space inertia matrix B(q), (n, n), symmetric positive definite, rotors included
     (D2, D3), by the composite-rigid-body algorithm (``dynamics`` as in
     :func:`inverse_dynamics`).  Units kg | kg·m | kg·m²."""
-    try:
-        packed, _, square, generated = robot.__dict__[_CACHE_KEY]
-    except KeyError:
-        packed, _, square, generated = _pack(robot)
+    last, packed, _, square, generated = _LAST
+    if last is not robot:
+        packed, _, square, generated = _use(robot)
     B = _empty(square)
     try:
         plain = q.ndim == 1 and q.dtype is _F64
@@ -395,10 +408,9 @@ def coriolis_matrix(robot: Robot, q, qd) -> np.ndarray:
 
     so that Ḃ − 2C is skew-symmetric (Siciliano et al. (7.49)).
     """
-    try:
-        packed, _, square, _ = robot.__dict__[_CACHE_KEY]
-    except KeyError:
-        packed, _, square, _ = _pack(robot)
+    last, packed, _, square, _ = _LAST
+    if last is not robot:
+        packed, _, square, _ = _use(robot)
     C = _empty(square)
     try:
         plain = q.ndim == qd.ndim == 1 and q.dtype is qd.dtype is _F64
@@ -411,10 +423,9 @@ def coriolis_matrix(robot: Robot, q, qd) -> np.ndarray:
 
 def gravity_torque(robot: Robot, q) -> np.ndarray:
     """Gravity torques g(q) = (∂U/∂q)ᵀ, (n,) [N | N·m], with U of (D7)."""
-    try:
-        packed, n, _, _ = robot.__dict__[_CACHE_KEY]
-    except KeyError:
-        packed, n, _, _ = _pack(robot)
+    last, packed, n, _, _ = _LAST
+    if last is not robot:
+        packed, n, _, _ = _use(robot)
     g = _empty(n)
     try:
         plain = q.ndim == 1 and q.dtype is _F64
@@ -434,10 +445,9 @@ def forward_dynamics(robot: Robot, q, qd, tau, h_e=None, dynamics: str = NUMERIC
     :func:`inverse_dynamics`, and ``dynamics`` (a generated module serves every call).  Raises
     :class:`SingularInertiaError` if B is not positive definite.
     """
-    try:
-        packed, n, _, generated = robot.__dict__[_CACHE_KEY]
-    except KeyError:
-        packed, n, _, generated = _pack(robot)
+    last, packed, n, _, generated = _LAST
+    if last is not robot:
+        packed, n, _, generated = _use(robot)
     qdd = _empty(n)
     entries = False if dynamics is NUMERIC else _closed_form(robot, dynamics)
     if entries:
