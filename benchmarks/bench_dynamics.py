@@ -4,10 +4,11 @@
   ``forward_dynamics`` vs ``pinocchio.rnea`` / ``crba`` / ``aba``; armlab twice, with its
   general kernels (the default) and with the robot's generated module
   (``dynamics="closed_form"``, ``armlab.closed_form``), each checked against Pinocchio first.
-* **Batched**: many states in one call — armlab's kernels in a compiled loop (what a
-  simulation does) vs Pinocchio called in a Python loop (its Python API has no batch call).
+* **Batched**: many states in one call — armlab's kernels inlined into a compiled loop (what
+  a simulation does) vs Pinocchio called in a Python loop (its Python API has no batch call).
 * **PRP inverse dynamics inside compiled code**: nanoseconds per evaluation in a compiled loop
-  over many states (target ≤ 100 ns), for the general ``rnea_into``, the closed form generated
+  over many states (target ≤ 100 ns), for the general RNEA (inlined into the loop, as the
+  simulation's entries call it, and behind a call), the closed form generated
   by ``armlab.symbolic`` and a hand-written closed form (the practical limit, ratio 1).
 * **Compile caching**: time to import armlab and make the first dynamics calls in a fresh
   process with an empty numba cache, then in a second process that loads the cache.
@@ -18,8 +19,9 @@ generated closed-form kernels (which reshape and slice) run several times slower
 
 Both libraries get the same rigid-body model (motor rotors and friction removed: Pinocchio has
 no motor model), Pinocchio's from armlab's URDF export.  Times are the best of several
-repeats of thread CPU time, so other processes on a shared machine inflate them less; ratios
-are armlab / Pinocchio (below 1: armlab faster).
+repeats of thread CPU time, so other processes on a shared machine inflate them less; per-call
+times are taken in turns (armlab, its closed form, Pinocchio, again), so that the machine's
+drifting pace reaches all three alike.  Ratios are armlab / Pinocchio (below 1: armlab faster).
 
 Run: ``python benchmarks/bench_dynamics.py`` or ``make bench``.
 """
@@ -38,7 +40,13 @@ import numpy as np
 from numba import njit
 
 import armlab
-from armlab.kernels.dynamics import forward_dynamics_into, make_workspace, mass_matrix_into, rnea_into
+from armlab.kernels.dynamics import (
+    forward_dynamics_inline,
+    make_workspace,
+    mass_matrix_inline,
+    rnea_inline,
+    rnea_into,
+)
 from armlab.model.robot import Friction, Motor
 
 ROBOTS = ("prp", "puma560")
@@ -91,19 +99,25 @@ def _best_batch(f, states):
 @njit(cache=True, _nrt=False)
 def _rnea_batch(m, ws, Q, QD, QDD, h_e, out):
     for k in range(Q.shape[0]):
+        rnea_inline(m, ws, Q[k], QD[k], QDD[k], 1.0, h_e, out[k])
+
+
+@njit(cache=True, _nrt=False)
+def _rnea_call_batch(m, ws, Q, QD, QDD, h_e, out):
+    for k in range(Q.shape[0]):
         rnea_into(m, ws, Q[k], QD[k], QDD[k], 1.0, h_e, out[k])
 
 
 @njit(cache=True, _nrt=False)
 def _crba_batch(m, ws, Q, out):
     for k in range(Q.shape[0]):
-        mass_matrix_into(m, ws, Q[k], out[k])
+        mass_matrix_inline(m, ws, Q[k], out[k])
 
 
 @njit(cache=True, _nrt=False)
 def _aba_batch(m, ws, Q, QD, TAU, h_e, out):
     for k in range(Q.shape[0]):
-        forward_dynamics_into(m, ws, Q[k], QD[k], TAU[k], h_e, out[k])
+        forward_dynamics_inline(m, ws, Q[k], QD[k], TAU[k], h_e, out[k])
 
 
 def _pinocchio(robot):
@@ -154,18 +168,25 @@ def _batch_pairs(pin, m, ws, h_e, model, data, Q, QD, QDD, QP, TAU, B, QDD_OUT):
 
 
 @njit(cache=True, _nrt=False)
-def _touch(packed, q, qd, qdd, out):
-    out[0] = packed[0] + q[0] + qd[0] + qdd[0]
+def _touch(packed, q, out):
+    out[0, 0] = packed[0] + q[0]
+    return 0
 
 
 def call_floor_us():
-    """µs of the bare mechanics of one wrapper call: a compiled function taking the wrapper's
-    five arrays (packed robot, q, q̇, q̈, fresh output) and doing nothing: what is left to
-    win on the Python side."""
-    robot = armlab.load_robot("prp")
-    packed = np.zeros(500)
-    q = np.zeros(robot.n)
-    return _best(lambda: _touch(packed, q, q, q, np.empty(3)), 20000) * 1e6
+    """µs of the bare mechanics of an ``inertia_matrix`` call on the PRP: a Python function that
+    allocates the (3, 3) output and calls compiled machine code with the wrapper's three arrays
+    (packed robot, q, output) that does nothing, directly as the wrapper does (no dispatcher)."""
+    packed, q = np.zeros(500), np.zeros(3)
+    _touch(packed, q, np.empty((3, 3)))
+    code = _touch.overloads[_touch.signatures[0]].entry_point
+
+    def wrapper(q):
+        out = np.empty((3, 3))
+        code(packed, q, out)
+        return out
+
+    return _best(lambda: wrapper(q), 20000) * 1e6
 
 
 def per_call_rows():
@@ -272,7 +293,8 @@ def _symbolic_tau_loop(robot):
 
 def prp_compiled_rows(states=200000):
     """ns per PRP inverse-dynamics evaluation (prp_actuated: motors, friction) in a compiled
-    loop: armlab's general RNEA (``rnea_into``); the generated closed-form kernels
+    loop: armlab's general RNEA, inlined (``rnea_inline``) and behind a call (``rnea_into``,
+    which passes the robot and workspace flattened); the generated closed-form kernels
     (``armlab.symbolic.closed_form_kernels(...).rnea_into``: B, C, g written into matrices, then
     multiplied); armlab.symbolic's B q̈ + C q̇ + g as one compiled expression; and the
     hand-written closed form (the practical limit)."""
@@ -294,8 +316,14 @@ def prp_compiled_rows(states=200000):
         if not np.allclose(other, TAU, rtol=1e-9, atol=1e-9):
             raise AssertionError(f"{name} closed form disagrees with rnea_into: "
                                  f"{np.abs(other - TAU).max():.3g}")
+    TAU_CALL = np.empty_like(Q)
+    _rnea_call_batch(m, ws, Q, QD, QDD, h_e, TAU_CALL)
+    if not np.array_equal(TAU_CALL, TAU):
+        raise AssertionError("rnea_into and rnea_inline disagree")
     return [
-        ("rnea_into (general RNEA)", _best_batch(lambda: _rnea_batch(m, ws, Q, QD, QDD, h_e, TAU), states)),
+        ("rnea_inline (general RNEA)", _best_batch(lambda: _rnea_batch(m, ws, Q, QD, QDD, h_e, TAU), states)),
+        ("rnea_into (the same, one call)", _best_batch(
+            lambda: _rnea_call_batch(m, ws, Q, QD, QDD, h_e, TAU_CALL), states)),
         ("closed_form_kernels", _best_batch(lambda: generated(m, ws, Q, QD, QDD, h_e, TAU_GEN), states)),
         ("closed_form_torque", _best_batch(lambda: symbolic(Q, QD, QDD, TAU_SYM), states)),
         ("hand-written closed form", _best_batch(
@@ -354,8 +382,8 @@ def main():
           f"{'ratio':>7s} {'ratio cf':>9s}")
     for name, algorithm, a, c, p, r, rc in per_call_rows():
         print(f"{name:10s} {algorithm:9s} {a:9.2f} {c:12.2f} {p:10.2f} {r:7.2f} {rc:9.2f}")
-    print(f"(floor: a compiled call with the wrapper's five array arguments doing nothing, "
-          f"fresh output included: {call_floor_us():.2f} µs)")
+    print(f"(floor: a Python function allocating a (3, 3) output and calling machine code with "
+          f"the PRP crba wrapper's three arrays, doing nothing: {call_floor_us():.2f} µs)")
     print("\nBatched, 20000 states per call [ns per state] "
           "(armlab: compiled loop; Pinocchio: Python loop)")
     print(f"{'robot':10s} {'algorithm':9s} {'armlab':>9s} {'pinocchio':>10s} {'ratio':>7s}")
@@ -365,9 +393,9 @@ def main():
     limit = rows[-1][1]
     print("\nPRP inverse dynamics inside compiled code (prp_actuated: motors, friction), "
           "200000 states [ns per evaluation] (target ≤ 100 ns)")
-    print(f"{'route':26s} {'ns':>7s} {'/ hand-written':>15s}")
+    print(f"{'route':32s} {'ns':>7s} {'/ hand-written':>15s}")
     for route, seconds in rows:
-        print(f"{route:26s} {seconds * 1e9:7.0f} {seconds / limit:15.2f}")
+        print(f"{route:32s} {seconds * 1e9:7.0f} {seconds / limit:15.2f}")
     print(f"Machine pace for reference: 300 floating-point operations take {reference_ns():.0f} ns "
           "in a compiled loop")
     cold, warm = compile_times()

@@ -39,10 +39,10 @@ from numba import njit, types
 from armlab.errors import ArmlabError
 from armlab.kernels.dynamics import (
     coriolis_matrix_into,
-    forward_dynamics_inline,
-    gravity_inline,
+    forward_dynamics_into,
+    gravity_into,
     mass_matrix_inline,
-    rnea_inline,
+    rnea_into,
 )
 from armlab.kernels.energy import potential_energy_kernel
 from armlab.kernels.indirect import COMPILE_LOCK
@@ -144,7 +144,7 @@ def _rnea_fast(packed, q, qd, qdd, out):
     n, m, ws, zero_wrench = _unpack(packed)
     if not (_plain(q, n) and _plain(qd, n) and _plain(qdd, n)):
         return 1
-    rnea_inline(m, ws, q, qd, qdd, 1.0, zero_wrench, out)
+    rnea_into(m, ws, q, qd, qdd, 1.0, zero_wrench, out)
     return 0
 
 
@@ -153,7 +153,7 @@ def _rnea_full(packed, q, qd, qdd, gravity_scale, h_e, out):
     n, m, ws, _ = _unpack(packed)
     if not (_plain(q, n) and _plain(qd, n) and _plain(qdd, n) and _plain(h_e, 6)):
         return 1
-    rnea_inline(m, ws, q, qd, qdd, gravity_scale, h_e, out)
+    rnea_into(m, ws, q, qd, qdd, gravity_scale, h_e, out)
     return 0
 
 
@@ -171,7 +171,7 @@ def _gravity_entry(packed, q, out):
     n, m, ws, _ = _unpack(packed)
     if not _plain(q, n):
         return 1
-    gravity_inline(m, ws, q, out)
+    gravity_into(m, ws, q, out)
     return 0
 
 
@@ -191,7 +191,7 @@ def _forward_free(packed, q, qd, tau, qdd_out):
     n, m, ws, zero_wrench = _unpack(packed)
     if not (_plain(q, n) and _plain(qd, n) and _plain(tau, n)):
         return 1
-    return 0 if forward_dynamics_inline(m, ws, q, qd, tau, zero_wrench, qdd_out) else 2
+    return 0 if forward_dynamics_into(m, ws, q, qd, tau, zero_wrench, qdd_out) else 2
 
 
 @_entry(_V, _V, _V, _V, _V, _V)
@@ -199,7 +199,7 @@ def _forward_full(packed, q, qd, tau, h_e, qdd_out):
     n, m, ws, _ = _unpack(packed)
     if not (_plain(q, n) and _plain(qd, n) and _plain(tau, n) and _plain(h_e, 6)):
         return 1
-    return 0 if forward_dynamics_inline(m, ws, q, qd, tau, h_e, qdd_out) else 2
+    return 0 if forward_dynamics_into(m, ws, q, qd, tau, h_e, qdd_out) else 2
 
 
 _kinetic_entry = _entry(_V, _V, _V)(kinetic_energy_packed)

@@ -22,11 +22,12 @@ Published API (n = number of joints; float64 arrays)::
 
 The energies (D6, D7) are in ``armlab.kernels.energy`` (same arguments).
 
-``rnea_inline``, ``mass_matrix_inline``, ``gravity_inline`` and ``forward_dynamics_inline``
-are the same kernels inlined into their caller: a call to a compiled kernel passes ``m`` and
-``ws`` flattened, ~300 machine words, which cost a 3-joint CRBA 55 of its 140 ns.  Entries
-called once per evaluation (the Python entries, the packed-robot kernels of the simulation
-loop) use them; the ``*_into`` kernels are the same code behind one call.
+``rnea_inline``, ``mass_matrix_inline`` and ``forward_dynamics_inline`` are the same kernels
+inlined into their caller: a call to a compiled kernel passes ``m`` and ``ws`` flattened, ~300
+machine words, which cost a 3-joint CRBA 55 of its 140 ns.  The ``*_into`` kernels are the
+same code behind one call.  Each inlined copy is compiled anew (the RNEA's takes seconds), so
+they are used where the call matters: the Python entry of B(q) and the forward dynamics of the
+simulation loop.
 
 Arguments: q, qd, qdd, tau (n,) [m | rad, /s, /s², N | N·m]; ``h_e`` (6,) = [f_e; μ_e], the
 wrench the end effector exerts on the environment, in Σ_0, μ_e about the origin of Σ_e
@@ -358,18 +359,12 @@ def rnea_into(m, ws, q, qd, qdd, gravity_scale, h_e, tau_out):
     rnea_inline(m, ws, q, qd, qdd, gravity_scale, h_e, tau_out)
 
 
-@small_kernel
-def gravity_inline(m, ws, q, g_out):
-    """:func:`gravity_into`, inlined into its caller."""
-    local_transforms_into(m, q, ws.R, ws.p)
-    z = ws.zero
-    _rnea_body(m, ws, q, z, z, 1.0, ws.R0[0], 0.0, 0.0, g_out)
-
-
 @kernel
 def gravity_into(m, ws, q, g_out):
     """Gravity torque g(q) = ∂U/∂q, (n,) [N | N·m] (RNEA with q̇ = q̈ = 0)."""
-    gravity_inline(m, ws, q, g_out)
+    local_transforms_into(m, q, ws.R, ws.p)
+    z = ws.zero
+    _rnea_core(m, ws, q, z, z, 1.0, ws.R0[0], 0.0, 0.0, g_out)
 
 
 @kernel
@@ -594,11 +589,11 @@ def forward_dynamics_into(m, ws, q, qd, tau, h_e, qdd_out):
 
 @small_kernel
 def forward_dynamics_inline(m, ws, q, qd, tau, h_e, qdd_out):
-    """:func:`forward_dynamics_into`, inlined into its caller; the RNEA (q̈ = 0) and the CRBA
-    share one evaluation of the joint transforms."""
+    """:func:`forward_dynamics_into`, inlined into its caller.  The CRBA is inlined and runs on
+    the joint transforms ``bias_into`` leaves in ``ws``; the RNEA stays behind its call, shared
+    with the other kernels (each inlined copy of it costs seconds of compile)."""
     n = q.shape[0]
-    local_transforms_into(m, q, ws.R, ws.p)
-    _rnea_body(m, ws, q, qd, ws.zero, 1.0, h_e, 1.0 if _has_wrench(h_e) else 0.0, 1.0, qdd_out)
+    bias_into(m, ws, q, qd, h_e, qdd_out)
     for k in range(n):
         qdd_out[k] = tau[k] - qdd_out[k]
     _crba_body(m, ws, n, ws.L)

@@ -28,7 +28,7 @@ from numba import njit
 from armlab.kernels.dynamics import (
     forward_dynamics_inline,
     kernel,
-    rnea_inline,
+    rnea_into,
     workspace_from_buffer,
     workspace_size,
 )
@@ -65,7 +65,7 @@ def inverse_dynamics_packed(packed, q, qd, qdd, tau_out):
     """τ = B q̈ + C q̇ + F_v q̇ + F_s sgn q̇ + g (D1, h_e = 0) by the RNEA; lengths unchecked
     (compiled callers pass n-vectors)."""
     n, m, ws, zero_wrench = unpack_plant(packed)
-    rnea_inline(m, ws, q, qd, qdd, 1.0, zero_wrench, tau_out)
+    rnea_into(m, ws, q, qd, qdd, 1.0, zero_wrench, tau_out)
 
 
 @kernel
