@@ -38,6 +38,7 @@ from numba import njit, types
 
 from armlab.errors import ArmlabError
 from armlab.kernels.dynamics import (
+    FASTMATH,
     coriolis_matrix_into,
     forward_dynamics_into,
     gravity_into,
@@ -109,7 +110,8 @@ def _entry(*argtypes):
     disk cache) at its first call; see the module docstring."""
     def wrap(function):
         # A kernel shared with compiled callers (armlab.kernels.plant) is used as it is.
-        dispatcher = function if hasattr(function, "py_func") else njit(cache=True, _nrt=False)(function)
+        dispatcher = function if hasattr(function, "py_func") else njit(
+            cache=True, _nrt=False, fastmath=FASTMATH)(function)
         # What disable_compile() sets; it refuses a dispatcher without a signature yet.
         with COMPILE_LOCK:
             dispatcher._can_compile = False
