@@ -9,6 +9,7 @@ wrapper under test.
 from __future__ import annotations
 
 import numpy as np
+import pandas as pd
 import pytest
 from numba import njit
 
@@ -102,7 +103,29 @@ def _lookalikes(v):
         "float32": v.astype(np.float32),
         "int64": np.round(v * 10).astype(np.int64),
         "uint64": np.round(np.abs(v) * 10).astype(np.uint64),
+        "pandas Series": pd.Series(v),
+        "ndarray subclass": v.view(_Tagged),
     }
+
+
+class _Tagged(np.ndarray):
+    """An honest ndarray subclass (astropy's Quantity and NumPy's memmap are such)."""
+
+
+class _LyingRank(np.ndarray):
+    """A subclass whose ndim property misreports its rank."""
+
+    @property
+    def ndim(self):
+        return 1
+
+
+class _LyingDtype(np.ndarray):
+    """A subclass whose dtype property misreports its items."""
+
+    @property
+    def dtype(self):
+        return np.dtype(np.float64)
 
 
 def test_every_function_converts_lookalike_inputs(prp):
@@ -261,3 +284,35 @@ def test_generated_entries_convert_lookalike_inputs():
                                       inverse_dynamics(robot, clean, qd, qdd, dynamics=cf), err_msg=kind)
         np.testing.assert_array_equal(inverse_dynamics(robot, qd, qdd, value, dynamics=cf),
                                       inverse_dynamics(robot, qd, qdd, clean, dynamics=cf), err_msg=kind)
+
+
+def test_subclasses_that_misreport_their_memory_are_read_by_numpy(prp):
+    """ndim and dtype of a subclass may be properties: the direct call must not trust them
+    (unboxing a 3-D array as a vector would write past its own memory)."""
+    z = np.zeros(prp.n)
+    rank = np.zeros((3, 3, 3)).view(_LyingRank)
+    with pytest.raises(ValueError, match="q must have shape"):
+        inertia_matrix(prp, rank)
+    with pytest.raises(ValueError, match="qd must have shape"):
+        inverse_dynamics(prp, z, rank, z)
+    ints = np.array([1, 2, 3], dtype=np.int64).view(_LyingDtype)
+    np.testing.assert_array_equal(gravity_torque(prp, ints), gravity_torque(prp, np.array([1.0, 2.0, 3.0])))
+
+
+def test_a_one_joint_robot_reads_a_single_item_at_any_stride():
+    """NumPy calls a one-item view C-contiguous whatever its stride (a column of a trajectory)."""
+    robot = armlab.load_robot("link1")
+    column = np.linspace(0.0, 1.0, 5).reshape(1, 5)[:, 3]
+    assert column.strides != (8,) and column.flags.c_contiguous
+    clean = column.copy()
+    z = np.zeros(1)
+    np.testing.assert_array_equal(gravity_torque(robot, column), gravity_torque(robot, clean))
+    np.testing.assert_array_equal(inertia_matrix(robot, column), inertia_matrix(robot, clean))
+    np.testing.assert_array_equal(forward_dynamics(robot, column, z, z), forward_dynamics(robot, clean, z, z))
+    np.testing.assert_array_equal(inverse_dynamics(robot, column, column, column),
+                                  inverse_dynamics(robot, clean, clean, clean))
+    np.testing.assert_array_equal(coriolis_matrix(robot, column, column),
+                                  coriolis_matrix(robot, clean, clean))
+    assert armlab.potential_energy(robot, column) == armlab.potential_energy(robot, clean)
+    np.testing.assert_array_equal(inertia_matrix(robot, column, dynamics="closed_form"),
+                                  inertia_matrix(robot, clean, dynamics="closed_form"))

@@ -23,12 +23,13 @@ Python side matters as much as the arithmetic):
 * each compiled entry has **one** signature (C-contiguous float64 vectors) and may not compile
   another.  The common call skips numba's dispatcher and calls that signature's machine code
   directly (:func:`_direct`, ~0.1 µs less).  What the dispatcher's type check guaranteed is
-  then checked in two halves: here, that every vector the caller passed has ``ndim == 1`` and
-  dtype float64 (what unboxing needs to stay inside its own memory and to read the right
-  numbers); inside the entry, the length, the stride of 8 bytes and the alignment (it returns
-  a status instead of touching memory).  Any other input — a list, another dtype, a strided
-  or misaligned array — is converted (with a one-line error naming the field when it cannot
-  be) and tried again.
+  then checked in two halves: here, that every vector the caller passed is an ndarray (exactly:
+  a subclass could report another ndim or dtype than its memory has), 1-D and float64 (what
+  unboxing needs to stay inside its own memory and to read the right numbers); inside the
+  entry, the length, the stride of 8 bytes (any, for one item) and the alignment (it returns
+  a status instead of touching memory).  Any other input — a list, a pandas Series, another
+  dtype, a strided or misaligned array — is converted (with a one-line error naming the field
+  when it cannot be) and tried again.
 """
 
 from __future__ import annotations
@@ -43,7 +44,7 @@ from armlab.kernels.dynamics import (
     forward_dynamics_into,
     gravity_into,
     mass_matrix_inline,
-    rnea_into,
+    rnea_inline,
 )
 from armlab.kernels.energy import potential_energy_kernel
 from armlab.kernels.indirect import COMPILE_LOCK
@@ -62,8 +63,9 @@ class SingularInertiaError(ArmlabError):
 
 
 def _pack(robot: Robot):
-    """(packed, n, (n, n), generated) of ``robot`` (``armlab.kernels.plant``; ``generated``
-    keeps the entries of its generated modules, see :func:`_closed_form`), made once and kept in
+    """(packed, n, (n, n), generated, zero wrench) of ``robot`` (``armlab.kernels.plant``;
+    ``generated`` keeps the entries of its generated modules, see :func:`_closed_form`; the zero
+    wrench is packed's own, a view), made once and kept in
     the robot's instance dictionary next to ``robot.arrays`` (a weak-key dictionary costs more
     than the dynamics of a small arm); the wrappers keep the last robot's at hand (``_LAST``).
     The model part depends only on the immutable robot; every kernel writes the scratch it
@@ -73,15 +75,15 @@ def _pack(robot: Robot):
     if cached is None:
         packed = pack_plant(robot.arrays)
         n = int(packed[0])
-        cached = robot.__dict__[_CACHE_KEY] = (packed, n, (n, n), _Generated())
+        cached = robot.__dict__[_CACHE_KEY] = (packed, n, (n, n), _Generated(), packed[1 + n:7 + n])
     return cached
 
 
-# The robot of the last wrapper call with its (packed, n, (n, n), generated), one tuple so that
+# The robot of the last wrapper call with its _pack tuple, all in one tuple so that
 # threads always read a consistent pair: comparing against it costs ~10 ns, the robot's own
 # lookup (an attribute of its instance dictionary) ~40 ns, a tenth of a PRP call.  It keeps
 # that one robot alive.
-_LAST = (None, None, 0, (0, 0), None)
+_LAST = (None, None, 0, (0, 0), None, None)
 
 
 def _use(robot: Robot):
@@ -134,28 +136,21 @@ def _ready(dispatcher) -> None:
 
 @njit(cache=True, _nrt=False, inline="always")
 def _plain(v, n):
-    """``v`` has n items 8 bytes apart from an 8-byte aligned address: what the entries' one
-    signature (C-contiguous float64) assumes and a direct call (:func:`_direct`) has not yet
-    checked."""
-    return v.shape[0] == n and v.strides[0] == 8 and v.ctypes.data % 8 == 0
+    """``v`` has n items 8 bytes apart (any stride for one item, whose first is all the code
+    reads) from an 8-byte aligned address: what the entries' one signature (C-contiguous
+    float64) assumes and a direct call (:func:`_direct`) has not yet checked."""
+    return v.shape[0] == n and (v.strides[0] == 8 or n == 1) and v.ctypes.data % 8 == 0
 
 
 # The entries return a status: 0 done, 1 an input is not a plain n-vector (nothing written).
-@_entry(_V, _V, _V, _V, _V)
-def _rnea_fast(packed, q, qd, qdd, out):
-    n, m, ws, zero_wrench = _unpack(packed)
-    if not (_plain(q, n) and _plain(qd, n) and _plain(qdd, n)):
-        return 1
-    rnea_into(m, ws, q, qd, qdd, 1.0, zero_wrench, out)
-    return 0
-
-
 @_entry(_V, _V, _V, _V, types.float64, _V, _V)
-def _rnea_full(packed, q, qd, qdd, gravity_scale, h_e, out):
+def _rnea_entry(packed, q, qd, qdd, gravity_scale, h_e, out):
+    """Every inverse dynamics call (h_e = the packed zero wrench for free motion): the RNEA is
+    inlined once, here (each inlined copy costs seconds of compile)."""
     n, m, ws, _ = _unpack(packed)
     if not (_plain(q, n) and _plain(qd, n) and _plain(qdd, n) and _plain(h_e, 6)):
         return 1
-    rnea_into(m, ws, q, qd, qdd, gravity_scale, h_e, out)
+    rnea_inline(m, ws, q, qd, qdd, gravity_scale, h_e, out)
     return 0
 
 
@@ -236,8 +231,7 @@ def _direct(name: str, dispatcher):
     return first_call
 
 
-_rnea_fast_code = _direct("_rnea_fast_code", _rnea_fast)
-_rnea_full_code = _direct("_rnea_full_code", _rnea_full)
+_rnea_code = _direct("_rnea_code", _rnea_entry)
 _mass_matrix_code = _direct("_mass_matrix_code", _mass_matrix_entry)
 _gravity_code = _direct("_gravity_code", _gravity_entry)
 _coriolis_code = _direct("_coriolis_code", _coriolis_entry)
@@ -245,6 +239,7 @@ _forward_free_code = _direct("_forward_free_code", _forward_free)
 _forward_full_code = _direct("_forward_full_code", _forward_full)
 _potential_code = _direct("_potential_code", _potential_entry)
 _empty = np.empty
+_ND = np.ndarray
 _F64 = np.dtype(np.float64)
 
 
@@ -302,7 +297,7 @@ def _vector(robot: Robot, value, name: str, size: int | None = None) -> np.ndarr
     """``value`` as a writeable C-contiguous float64 vector of the expected length (copied
     unless it already is one), or a one-line ValueError naming the field."""
     size = robot.n if size is None else size
-    if not (type(value) is np.ndarray and value.dtype == np.float64 and value.flags.c_contiguous
+    if not (type(value) is np.ndarray and value.dtype == np.float64 and value.strides == (8,)
             and value.flags.writeable and value.flags.aligned):
         try:
             value = np.array(value, dtype=np.float64)
@@ -321,7 +316,8 @@ def _vectors(robot: Robot, **named) -> list[np.ndarray]:
 # Each wrapper below inlines the same few steps (a helper call would cost a tenth of a call):
 #   1. the robot's packed array: the last robot's (_LAST), else found or made by _use;
 #   2. a fresh output;
-#   3. ``plain``: every vector passed is a 1-D float64 array (lists and scalars have no ndim);
+#   3. ``plain``: every vector passed is an ndarray (not a subclass, whose ndim and dtype
+#      could be properties that misreport the memory), 1-D, float64;
 #   4. the machine code of the entry when plain; a nonzero status, or an input that is not
 #      plain, converts the inputs (_vectors raises the one-line error) and calls again.
 # The generated entries of ``dynamics="closed_form"``/``"auto"`` are looked up inline too
@@ -346,36 +342,33 @@ def inverse_dynamics(robot: Robot, q, qd, qdd, h_e=None, gravity: bool = True,
         per call) or "auto" (the generated module up to ``AUTO_MAX_JOINTS`` joints).  The
         generated module serves calls without h_e and with gravity; others run the kernels.
     """
-    last, packed, n, _, generated = _LAST
+    last, packed, n, _, generated, zero_wrench = _LAST
     if last is not robot:
-        packed, n, _, generated = _use(robot)
+        packed, n, _, generated, zero_wrench = _use(robot)
     tau = _empty(n)
-    try:
-        plain = q.ndim == qd.ndim == qdd.ndim == 1 and q.dtype is qd.dtype is qdd.dtype is _F64
-    except AttributeError:
-        plain = False
-    if h_e is None and gravity:
-        if dynamics is NUMERIC:
-            call = _rnea_fast_code
-        else:
+    plain = (type(q) is type(qd) is type(qdd) is _ND and q.ndim == qd.ndim == qdd.ndim == 1
+             and q.dtype is qd.dtype is qdd.dtype is _F64)
+    if dynamics is not NUMERIC:
+        if h_e is None and gravity:
             try:
                 call = generated[dynamics][0]
             except (KeyError, TypeError):       # not made yet, the numeric kernels, no choice
-                call = (_closed_form(robot, dynamics) or (_rnea_fast_code,))[0]
-        if not plain or call(packed, q, qd, qdd, tau):
-            call(packed, *_vectors(robot, q=q, qd=qd, qdd=qdd), tau)
-        return tau
-    if dynamics is not NUMERIC:
-        _closed_form(robot, dynamics)                   # checks the choice
-    h = packed[1 + n:7 + n] if h_e is None else h_e
+                call = (_closed_form(robot, dynamics) or (None,))[0]
+            if call is not None:
+                if not plain or call(packed, q, qd, qdd, tau):
+                    call(packed, *_vectors(robot, q=q, qd=qd, qdd=qdd), tau)
+                return tau
+        else:
+            _closed_form(robot, dynamics)               # checks the choice
+    if h_e is None:
+        h = zero_wrench
+    else:
+        h = h_e
+        plain = plain and type(h) is _ND and h.ndim == 1 and h.dtype is _F64
     scale = 1.0 if gravity else 0.0
-    try:
-        plain = plain and h.ndim == 1 and h.dtype is _F64
-    except AttributeError:
-        plain = False
-    if not plain or _rnea_full_code(packed, q, qd, qdd, scale, h, tau):
+    if not plain or _rnea_code(packed, q, qd, qdd, scale, h, tau):
         q, qd, qdd, h = _vectors(robot, q=q, qd=qd, qdd=qdd, h_e=h)
-        _rnea_full_code(packed, q, qd, qdd, scale, h, tau)
+        _rnea_code(packed, q, qd, qdd, scale, h, tau)
     return tau
 
 
@@ -383,14 +376,11 @@ def inertia_matrix(robot: Robot, q, dynamics: str = NUMERIC) -> np.ndarray:
     """Joint-space inertia matrix B(q), (n, n), symmetric positive definite, rotors included
     (D2, D3), by the composite-rigid-body algorithm (``dynamics`` as in
     :func:`inverse_dynamics`).  Units kg | kg·m | kg·m²."""
-    last, packed, _, square, generated = _LAST
+    last, packed, _, square, generated, _ = _LAST
     if last is not robot:
-        packed, _, square, generated = _use(robot)
+        packed, _, square, generated, _ = _use(robot)
     B = _empty(square)
-    try:
-        plain = q.ndim == 1 and q.dtype is _F64
-    except AttributeError:
-        plain = False
+    plain = type(q) is _ND and q.ndim == 1 and q.dtype is _F64
     if dynamics is NUMERIC:
         call = _mass_matrix_code
     else:
@@ -410,14 +400,11 @@ def coriolis_matrix(robot: Robot, q, qd) -> np.ndarray:
 
     so that Ḃ − 2C is skew-symmetric (Siciliano et al. (7.49)).
     """
-    last, packed, _, square, _ = _LAST
+    last, packed, _, square, _, _ = _LAST
     if last is not robot:
-        packed, _, square, _ = _use(robot)
+        packed, _, square, _, _ = _use(robot)
     C = _empty(square)
-    try:
-        plain = q.ndim == qd.ndim == 1 and q.dtype is qd.dtype is _F64
-    except AttributeError:
-        plain = False
+    plain = type(q) is type(qd) is _ND and q.ndim == qd.ndim == 1 and q.dtype is qd.dtype is _F64
     if not plain or _coriolis_code(packed, q, qd, C):
         _coriolis_code(packed, *_vectors(robot, q=q, qd=qd), C)
     return C
@@ -425,14 +412,11 @@ def coriolis_matrix(robot: Robot, q, qd) -> np.ndarray:
 
 def gravity_torque(robot: Robot, q) -> np.ndarray:
     """Gravity torques g(q) = (∂U/∂q)ᵀ, (n,) [N | N·m], with U of (D7)."""
-    last, packed, n, _, _ = _LAST
+    last, packed, n, _, _, _ = _LAST
     if last is not robot:
-        packed, n, _, _ = _use(robot)
+        packed, n, _, _, _ = _use(robot)
     g = _empty(n)
-    try:
-        plain = q.ndim == 1 and q.dtype is _F64
-    except AttributeError:
-        plain = False
+    plain = type(q) is _ND and q.ndim == 1 and q.dtype is _F64
     if not plain or _gravity_code(packed, q, g):
         _gravity_code(packed, _vector(robot, q, "q"), g)
     return g
@@ -447,9 +431,9 @@ def forward_dynamics(robot: Robot, q, qd, tau, h_e=None, dynamics: str = NUMERIC
     :func:`inverse_dynamics`, and ``dynamics`` (a generated module serves every call).  Raises
     :class:`SingularInertiaError` if B is not positive definite.
     """
-    last, packed, n, _, generated = _LAST
+    last, packed, n, _, generated, _ = _LAST
     if last is not robot:
-        packed, n, _, generated = _use(robot)
+        packed, n, _, generated, _ = _use(robot)
     qdd = _empty(n)
     entries = False if dynamics is NUMERIC else _closed_form(robot, dynamics)
     if entries:
@@ -464,12 +448,10 @@ def forward_dynamics(robot: Robot, q, qd, tau, h_e=None, dynamics: str = NUMERIC
         if status == 1:
             _vectors(robot, q=q, qd=qd, tau=tau, h_e=h)
     else:
-        try:
-            plain = q.ndim == qd.ndim == tau.ndim == 1 and q.dtype is qd.dtype is tau.dtype is _F64
-            if h_e is not None:
-                plain = plain and h_e.ndim == 1 and h_e.dtype is _F64
-        except AttributeError:
-            plain = False
+        plain = (type(q) is type(qd) is type(tau) is _ND and q.ndim == qd.ndim == tau.ndim == 1
+                 and q.dtype is qd.dtype is tau.dtype is _F64)
+        if h_e is not None:
+            plain = plain and type(h_e) is _ND and h_e.ndim == 1 and h_e.dtype is _F64
         if h_e is None:
             status = _forward_free_code(packed, q, qd, tau, qdd) if plain else 1
             if status == 1:

@@ -186,9 +186,11 @@ def closed_form_source(sr: SymbolicRobot, *, key: str, name: str) -> str:
 
 
 def _plain(name: str, n: int) -> str:
-    """The test that vector ``name`` has n items 8 bytes apart from an 8-byte aligned address:
-    the Python entries' machine code is called without numba's type check (``armlab.dynamics``)."""
-    return f"({name}.shape[0] == {n} and {name}.strides[0] == 8 and {name}.ctypes.data % 8 == 0)"
+    """The test that vector ``name`` has n items 8 bytes apart (any stride for one item) from an
+    8-byte aligned address: the Python entries' machine code is called without numba's type
+    check (``armlab.dynamics``)."""
+    stride = f"{name}.strides[0] == 8" if n > 1 else "True"
+    return f"({name}.shape[0] == {n} and {stride} and {name}.ctypes.data % 8 == 0)"
 
 
 def mass_matrix_lines(n: int, body: list[str], entries: list[str]) -> list[str]:
