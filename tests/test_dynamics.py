@@ -279,3 +279,19 @@ def test_kernels_run_inside_compiled_code_with_one_workspace():
     out = np.empty_like(Q)
     _roundtrip_in_compiled_code(robot.arrays, Q, QD, QDD, out)
     np.testing.assert_allclose(out, QDD, rtol=1e-9, atol=1e-12)
+
+
+def test_an_asymmetric_inertia_built_in_code_gives_one_robot_to_every_kernel():
+    """The CRBA reads one triangle of a link inertia, the RNEA all of it: the robot's arrays
+    keep the symmetric part, so B equals the RNEA's columns whatever the tensor given."""
+    robot = armlab.load_robot("puma560")
+    links = list(robot.links)
+    I = np.array(links[2].inertial.inertia, dtype=float)
+    I[0, 1] += 0.01                      # not a physical tensor: I ≠ Iᵀ
+    links[2] = replace(links[2], inertial=replace(links[2].inertial, inertia=I))
+    odd = robot.replace(links=tuple(links))
+    q = np.linspace(-0.4, 0.5, odd.n)
+    z = np.zeros(odd.n)
+    g = inverse_dynamics(odd, q, z, z)
+    columns = np.column_stack([inverse_dynamics(odd, q, z, e) - g for e in np.eye(odd.n)])
+    np.testing.assert_allclose(inertia_matrix(odd, q), columns, rtol=1e-12, atol=1e-12)

@@ -299,7 +299,10 @@ class Robot:
             # The link's inertial is given in Σ_i = J_i · S_i; move it into J_i.
             R_after, p_after = joint.after[:3, :3], joint.after[:3, 3]
             com[i] = R_after @ link.inertial.com + p_after
-            inertia[i] = R_after @ link.inertial.inertia @ R_after.T
+            # Symmetric to the last bit: the CRBA reads one triangle, the RNEA the whole tensor
+            # (files may carry an asymmetry up to 1e-12; a tensor built in code, any).
+            rotated = R_after @ link.inertial.inertia @ R_after.T
+            inertia[i] = 0.5 * (rotated + rotated.T)
         tool = previous_after @ self.tool
         mass = np.array([lk.inertial.mass for lk in self.links])
         for i in range(1, n):
