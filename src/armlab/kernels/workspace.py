@@ -1,0 +1,104 @@
+"""The scratch workspace of the dynamics kernels (``armlab.kernels.dynamics``).
+
+One float64 buffer holds every scratch array, so a caller allocates once (or lends a slice of
+its own buffer, as the packed robot of ``armlab.kernels.plant`` does) and the kernels never
+allocate.  Every kernel writes the scratch it reads first, so a workspace can serve any
+sequence of calls; two threads must not share one.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+from numba import njit
+
+from armlab.kernels.packed import buffer_view
+
+
+class DynamicsWorkspace(NamedTuple):
+    """Scratch arrays of the dynamics kernels for an n-joint robot (all float64).
+
+    ``R`` (n, 3, 3), ``p`` (n, 3): J_i in J_{i−1} at the current q.  ``w``, ``wd``, ``a``,
+    ``f``, ``mu`` (n, 3): angular velocity, angular acceleration, origin acceleration, force
+    and moment of link i, in J_i.  ``Ic`` (n, 3, 3), ``hc`` (n, 3), ``mc`` (n,): composite
+    inertia about J_i's origin, first moment, mass.  ``L`` (n, n): Cholesky factor.
+    ``v1``, ``v2``, ``t1``, ``t2``, ``zero`` (n,): vectors (``zero`` stays 0).
+    ``R0`` (3, 3): rotation of the last joint frame in Σ_0.
+    """
+
+    R: np.ndarray
+    p: np.ndarray
+    w: np.ndarray
+    wd: np.ndarray
+    a: np.ndarray
+    f: np.ndarray
+    mu: np.ndarray
+    Ic: np.ndarray
+    hc: np.ndarray
+    mc: np.ndarray
+    L: np.ndarray
+    v1: np.ndarray
+    v2: np.ndarray
+    t1: np.ndarray
+    t2: np.ndarray
+    zero: np.ndarray
+    R0: np.ndarray
+
+
+@njit(cache=True)
+def workspace_size(n):
+    """Number of float64 entries of a workspace for n joints (see :func:`workspace_from_buffer`)."""
+    return 45 * n + n * n + 9
+
+
+# Inlined into its caller so that the views are reference-counted as the caller is: a
+# separately compiled helper inherits the reference-counting flag of whichever caller compiles
+# it first (numba's flag inheritance), and the one machine-code version would then be wrong for
+# the other kind of caller (missing increfs: freed memory; extra increfs: leaks).
+@njit(cache=True, inline="always")
+def workspace_from_buffer(buf, n):
+    """A :class:`DynamicsWorkspace` whose arrays are views into ``buf`` (workspace_size(n),);
+    one allocation serves every scratch array.  ``buf`` must be zero where ``zero`` lies."""
+    d = np.float64
+    o = 0
+    R = buffer_view(buf, o, (n, 3, 3), d)
+    o += 9 * n
+    p = buffer_view(buf, o, (n, 3), d)
+    o += 3 * n
+    w = buffer_view(buf, o, (n, 3), d)
+    o += 3 * n
+    wd = buffer_view(buf, o, (n, 3), d)
+    o += 3 * n
+    a = buffer_view(buf, o, (n, 3), d)
+    o += 3 * n
+    f = buffer_view(buf, o, (n, 3), d)
+    o += 3 * n
+    mu = buffer_view(buf, o, (n, 3), d)
+    o += 3 * n
+    Ic = buffer_view(buf, o, (n, 3, 3), d)
+    o += 9 * n
+    hc = buffer_view(buf, o, (n, 3), d)
+    o += 3 * n
+    mc = buffer_view(buf, o, n, d)
+    o += n
+    L = buffer_view(buf, o, (n, n), d)
+    o += n * n
+    v1 = buffer_view(buf, o, n, d)
+    o += n
+    v2 = buffer_view(buf, o, n, d)
+    o += n
+    t1 = buffer_view(buf, o, n, d)
+    o += n
+    t2 = buffer_view(buf, o, n, d)
+    o += n
+    zero = buffer_view(buf, o, n, d)
+    o += n
+    R0 = buffer_view(buf, o, (3, 3), d)
+    return DynamicsWorkspace(R, p, w, wd, a, f, mu, Ic, hc, mc, L, v1, v2, t1, t2, zero, R0)
+
+
+@njit(cache=True, _nrt=True)
+def make_workspace(n):
+    """A :class:`DynamicsWorkspace` for an n-joint robot (one zeroed buffer)."""
+    return workspace_from_buffer(np.zeros(workspace_size(n)), n)
