@@ -181,18 +181,10 @@ def _coriolis_entry(packed, q, qd, out):
     return 0
 
 
-@_entry(_V, _V, _V, _V, _V)
-def _forward_free(packed, q, qd, tau, qdd_out):
-    """Forward dynamics without a wrench (the packed zero wrench: slicing it out of ``packed``
-    in Python cost a fifth of a PRP call); 2: B is not positive definite."""
-    n, m, ws, zero_wrench = _unpack(packed)
-    if not (_plain(q, n) and _plain(qd, n) and _plain(tau, n)):
-        return 1
-    return 0 if forward_dynamics_into(m, ws, q, qd, tau, zero_wrench, qdd_out) else 2
-
-
 @_entry(_V, _V, _V, _V, _V, _V)
-def _forward_full(packed, q, qd, tau, h_e, qdd_out):
+def _forward_entry(packed, q, qd, tau, h_e, qdd_out):
+    """Every numeric forward dynamics call (h_e = the packed zero wrench for free motion);
+    2: B is not positive definite."""
     n, m, ws, _ = _unpack(packed)
     if not (_plain(q, n) and _plain(qd, n) and _plain(tau, n) and _plain(h_e, 6)):
         return 1
@@ -235,8 +227,7 @@ _rnea_code = _direct("_rnea_code", _rnea_entry)
 _mass_matrix_code = _direct("_mass_matrix_code", _mass_matrix_entry)
 _gravity_code = _direct("_gravity_code", _gravity_entry)
 _coriolis_code = _direct("_coriolis_code", _coriolis_entry)
-_forward_free_code = _direct("_forward_free_code", _forward_free)
-_forward_full_code = _direct("_forward_full_code", _forward_full)
+_forward_code = _direct("_forward_code", _forward_entry)
 _potential_code = _direct("_potential_code", _potential_entry)
 _empty = np.empty
 _ND = np.ndarray
@@ -258,12 +249,12 @@ class _Generated(dict):
 
 
 def _closed_form(robot: Robot, dynamics: str):
-    """(inverse, mass, forward, zero wrench) of the module ``dynamics`` ("auto" or
+    """(inverse, mass, forward) of the module ``dynamics`` ("auto" or
     "closed_form") chooses for ``robot`` (``armlab.closed_form``: generated, compiled and
     checked on first use): the machine code of its Python-only ``checked_inverse_dynamics``
     and ``mass_matrix`` (called as the numeric entries are, statuses alike), the dispatcher of
     its ``forward_dynamics`` (shared with compiled callers, so without the stride checks a
-    direct call needs) and a wrench of zeros; False when the choice runs the numeric kernels.
+    direct call needs); False when the choice runs the numeric kernels.
     Kept with the packed robot."""
     if type(dynamics) is str and dynamics == NUMERIC:
         return False
@@ -280,7 +271,7 @@ def _closed_form(robot: Robot, dynamics: str):
         entries = False if module is None else ((
             _machine_code(_python_entry(module.checked_inverse_dynamics, (_V,) * 5)),
             _machine_code(_python_entry(module.mass_matrix, (_V, _V, _M))),
-            _python_entry(module.forward_dynamics, (_V,) * 6), np.zeros(6)))
+            _python_entry(module.forward_dynamics, (_V,) * 6)))
         generated[dynamics] = entries
     return entries
 
@@ -431,15 +422,15 @@ def forward_dynamics(robot: Robot, q, qd, tau, h_e=None, dynamics: str = NUMERIC
     :func:`inverse_dynamics`, and ``dynamics`` (a generated module serves every call).  Raises
     :class:`SingularInertiaError` if B is not positive definite.
     """
-    last, packed, n, _, generated, _ = _LAST
+    last, packed, n, _, _, zero_wrench = _LAST
     if last is not robot:
-        packed, n, _, generated, _ = _use(robot)
+        packed, n, _, _, zero_wrench = _use(robot)
     qdd = _empty(n)
     entries = False if dynamics is NUMERIC else _closed_form(robot, dynamics)
+    h = zero_wrench if h_e is None else h_e
     if entries:
         # The generated forward dynamics is shared with compiled callers: its dispatcher's
         # type check stands in for the stride checks it does not make.
-        h = entries[3] if h_e is None else h_e
         try:
             status = entries[2](packed, q, qd, tau, h, qdd)
         except TypeError:
@@ -452,14 +443,9 @@ def forward_dynamics(robot: Robot, q, qd, tau, h_e=None, dynamics: str = NUMERIC
                  and q.dtype is qd.dtype is tau.dtype is _F64)
         if h_e is not None:
             plain = plain and type(h_e) is _ND and h_e.ndim == 1 and h_e.dtype is _F64
-        if h_e is None:
-            status = _forward_free_code(packed, q, qd, tau, qdd) if plain else 1
-            if status == 1:
-                status = _forward_free_code(packed, *_vectors(robot, q=q, qd=qd, tau=tau), qdd)
-        else:
-            status = _forward_full_code(packed, q, qd, tau, h_e, qdd) if plain else 1
-            if status == 1:
-                status = _forward_full_code(packed, *_vectors(robot, q=q, qd=qd, tau=tau, h_e=h_e), qdd)
+        status = _forward_code(packed, q, qd, tau, h, qdd) if plain else 1
+        if status == 1:
+            status = _forward_code(packed, *_vectors(robot, q=q, qd=qd, tau=tau, h_e=h), qdd)
     if status == 2:
         raise SingularInertiaError(f"robot {robot.name!r}: inertia matrix B(q) is not positive definite")
     return qdd
