@@ -284,6 +284,10 @@ def test_generated_entries_convert_lookalike_inputs():
                                       inverse_dynamics(robot, clean, qd, qdd, dynamics=cf), err_msg=kind)
         np.testing.assert_array_equal(inverse_dynamics(robot, qd, qdd, value, dynamics=cf),
                                       inverse_dynamics(robot, qd, qdd, clean, dynamics=cf), err_msg=kind)
+        np.testing.assert_array_equal(forward_dynamics(robot, value, qd, qdd, dynamics=cf),
+                                      forward_dynamics(robot, clean, qd, qdd, dynamics=cf), err_msg=kind)
+        np.testing.assert_array_equal(forward_dynamics(robot, qd, qdd, value, dynamics=cf),
+                                      forward_dynamics(robot, qd, qdd, clean, dynamics=cf), err_msg=kind)
 
 
 def test_subclasses_that_misreport_their_memory_are_read_by_numpy(prp):

@@ -304,15 +304,17 @@ def _vectors(robot: Robot, **named) -> list[np.ndarray]:
     return [_vector(robot, value, name, 6 if name == "h_e" else None) for name, value in named.items()]
 
 
-# Each wrapper below inlines the same few steps (a helper call would cost a tenth of a call):
-#   1. the robot's packed array: the last robot's (_LAST), else found or made by _use;
-#   2. a fresh output;
-#   3. ``plain``: every vector passed is an ndarray (not a subclass, whose ndim and dtype
-#      could be properties that misreport the memory), 1-D, float64;
-#   4. the machine code of the entry when plain; a nonzero status, or an input that is not
-#      plain, converts the inputs (_vectors raises the one-line error) and calls again.
-# The generated entries of ``dynamics="closed_form"``/``"auto"`` are looked up inline too
-# (forward_dynamics excepted: its generated entry is called through its dispatcher anyway);
+# Each public function is a fast path and a general one.  The fast path is written out inline
+# (a helper call costs a tenth of a call) and taken when
+#   * the robot is the last one used (_LAST holds its packed array),
+#   * every vector passed is an ndarray (not a subclass, whose ndim and dtype could be
+#     properties misreporting its memory), 1-D and float64,
+#   * and the entry's machine code then returns status 0 (length, stride and alignment right).
+# Everything else — another robot, a list, another dtype, a strided array, a wrench, a
+# generated module not made yet, a bad choice — takes the general path (the function with a
+# leading underscore): it finds or makes the robot's packed array (_use), converts the inputs
+# (_vectors raises the one-line error naming the field) and calls the entry again.  The
+# generated entries of dynamics="closed_form"/"auto" are kept with the packed robot;
 # _closed_form makes them, and checks the choice, the first time.
 
 def inverse_dynamics(robot: Robot, q, qd, qdd, h_e=None, gravity: bool = True,
@@ -334,32 +336,32 @@ def inverse_dynamics(robot: Robot, q, qd, qdd, h_e=None, gravity: bool = True,
         generated module serves calls without h_e and with gravity; others run the kernels.
     """
     last, packed, n, _, generated, zero_wrench = _LAST
-    if last is not robot:
-        packed, n, _, generated, zero_wrench = _use(robot)
     tau = _empty(n)
-    plain = (type(q) is type(qd) is type(qdd) is _ND and q.ndim == qd.ndim == qdd.ndim == 1
-             and q.dtype is qd.dtype is qdd.dtype is _F64)
-    if dynamics is not NUMERIC:
-        if h_e is None and gravity:
+    if (last is robot and h_e is None and gravity and type(q) is type(qd) is type(qdd) is _ND
+            and q.ndim == qd.ndim == qdd.ndim == 1 and q.dtype is qd.dtype is qdd.dtype is _F64):
+        if dynamics is NUMERIC:
+            if not _rnea_code(packed, q, qd, qdd, 1.0, zero_wrench, tau):
+                return tau
+        else:
             try:
                 call = generated[dynamics][0]
             except (KeyError, TypeError):       # not made yet, the numeric kernels, no choice
-                call = (_closed_form(robot, dynamics) or (None,))[0]
-            if call is not None:
-                if not plain or call(packed, q, qd, qdd, tau):
-                    call(packed, *_vectors(robot, q=q, qd=qd, qdd=qdd), tau)
+                call = None
+            if call is not None and not call(packed, q, qd, qdd, tau):
                 return tau
-        else:
-            _closed_form(robot, dynamics)               # checks the choice
-    if h_e is None:
-        h = zero_wrench
-    else:
-        h = h_e
-        plain = plain and type(h) is _ND and h.ndim == 1 and h.dtype is _F64
-    scale = 1.0 if gravity else 0.0
-    if not plain or _rnea_code(packed, q, qd, qdd, scale, h, tau):
-        q, qd, qdd, h = _vectors(robot, q=q, qd=qd, qdd=qdd, h_e=h)
-        _rnea_code(packed, q, qd, qdd, scale, h, tau)
+    return _inverse_dynamics(robot, q, qd, qdd, h_e, gravity, dynamics)
+
+
+def _inverse_dynamics(robot: Robot, q, qd, qdd, h_e, gravity, dynamics) -> np.ndarray:
+    packed, n, _, _, zero_wrench = _use(robot)
+    tau = _empty(n)
+    entries = False if dynamics is NUMERIC else _closed_form(robot, dynamics)
+    if entries and h_e is None and gravity:     # the generated module serves free motion
+        entries[0](packed, *_vectors(robot, q=q, qd=qd, qdd=qdd), tau)
+        return tau
+    h = zero_wrench if h_e is None else h_e
+    q, qd, qdd, h = _vectors(robot, q=q, qd=qd, qdd=qdd, h_e=h)
+    _rnea_code(packed, q, qd, qdd, 1.0 if gravity else 0.0, h, tau)
     return tau
 
 
@@ -368,19 +370,26 @@ def inertia_matrix(robot: Robot, q, dynamics: str = NUMERIC) -> np.ndarray:
     (D2, D3), by the composite-rigid-body algorithm (``dynamics`` as in
     :func:`inverse_dynamics`).  Units kg | kg·m | kg·m²."""
     last, packed, _, square, generated, _ = _LAST
-    if last is not robot:
-        packed, _, square, generated, _ = _use(robot)
     B = _empty(square)
-    plain = type(q) is _ND and q.ndim == 1 and q.dtype is _F64
-    if dynamics is NUMERIC:
-        call = _mass_matrix_code
-    else:
-        try:
-            call = generated[dynamics][1]
-        except (KeyError, TypeError):           # not made yet, the numeric kernels, no choice
-            call = (_closed_form(robot, dynamics) or (None, _mass_matrix_code))[1]
-    if not plain or call(packed, q, B):
-        call(packed, _vector(robot, q, "q"), B)
+    if last is robot and type(q) is _ND and q.ndim == 1 and q.dtype is _F64:
+        if dynamics is NUMERIC:
+            if not _mass_matrix_code(packed, q, B):
+                return B
+        else:
+            try:
+                call = generated[dynamics][1]
+            except (KeyError, TypeError):       # not made yet, the numeric kernels, no choice
+                call = None
+            if call is not None and not call(packed, q, B):
+                return B
+    return _inertia_matrix(robot, q, dynamics)
+
+
+def _inertia_matrix(robot: Robot, q, dynamics) -> np.ndarray:
+    packed, _, square, _, _ = _use(robot)
+    B = _empty(square)
+    entries = False if dynamics is NUMERIC else _closed_form(robot, dynamics)
+    (entries[1] if entries else _mass_matrix_code)(packed, _vector(robot, q, "q"), B)
     return B
 
 
@@ -392,24 +401,26 @@ def coriolis_matrix(robot: Robot, q, qd) -> np.ndarray:
     so that Ḃ − 2C is skew-symmetric (Siciliano et al. (7.49)).
     """
     last, packed, _, square, _, _ = _LAST
-    if last is not robot:
-        packed, _, square, _, _ = _use(robot)
     C = _empty(square)
-    plain = type(q) is type(qd) is _ND and q.ndim == qd.ndim == 1 and q.dtype is qd.dtype is _F64
-    if not plain or _coriolis_code(packed, q, qd, C):
-        _coriolis_code(packed, *_vectors(robot, q=q, qd=qd), C)
+    if (last is robot and type(q) is type(qd) is _ND and q.ndim == qd.ndim == 1
+            and q.dtype is qd.dtype is _F64 and not _coriolis_code(packed, q, qd, C)):
+        return C
+    packed, _, square, _, _ = _use(robot)
+    C = _empty(square)
+    _coriolis_code(packed, *_vectors(robot, q=q, qd=qd), C)
     return C
 
 
 def gravity_torque(robot: Robot, q) -> np.ndarray:
     """Gravity torques g(q) = (∂U/∂q)ᵀ, (n,) [N | N·m], with U of (D7)."""
     last, packed, n, _, _, _ = _LAST
-    if last is not robot:
-        packed, n, _, _, _ = _use(robot)
     g = _empty(n)
-    plain = type(q) is _ND and q.ndim == 1 and q.dtype is _F64
-    if not plain or _gravity_code(packed, q, g):
-        _gravity_code(packed, _vector(robot, q, "q"), g)
+    if (last is robot and type(q) is _ND and q.ndim == 1 and q.dtype is _F64
+            and not _gravity_code(packed, q, g)):
+        return g
+    packed, n, _, _, _ = _use(robot)
+    g = _empty(n)
+    _gravity_code(packed, _vector(robot, q, "q"), g)
     return g
 
 
@@ -422,30 +433,32 @@ def forward_dynamics(robot: Robot, q, qd, tau, h_e=None, dynamics: str = NUMERIC
     :func:`inverse_dynamics`, and ``dynamics`` (a generated module serves every call).  Raises
     :class:`SingularInertiaError` if B is not positive definite.
     """
-    last, packed, n, _, _, zero_wrench = _LAST
-    if last is not robot:
-        packed, n, _, _, zero_wrench = _use(robot)
+    last, packed, n, _, generated, zero_wrench = _LAST
+    qdd = _empty(n)
+    if (last is robot and h_e is None and type(q) is type(qd) is type(tau) is _ND
+            and q.ndim == qd.ndim == tau.ndim == 1 and q.dtype is qd.dtype is tau.dtype is _F64):
+        if dynamics is NUMERIC:
+            if not _forward_code(packed, q, qd, tau, zero_wrench, qdd):
+                return qdd
+        else:
+            # The generated forward dynamics is shared with compiled callers and has no stride
+            # checks: its dispatcher's type check refuses a strided vector (TypeError).
+            try:
+                if not generated[dynamics][2](packed, q, qd, tau, zero_wrench, qdd):
+                    return qdd
+            except (KeyError, TypeError):       # not made yet, numeric, no choice, strided
+                pass
+    return _forward_dynamics(robot, q, qd, tau, h_e, dynamics)
+
+
+def _forward_dynamics(robot: Robot, q, qd, tau, h_e, dynamics) -> np.ndarray:
+    packed, n, _, _, zero_wrench = _use(robot)
     qdd = _empty(n)
     entries = False if dynamics is NUMERIC else _closed_form(robot, dynamics)
-    h = zero_wrench if h_e is None else h_e
-    if entries:
-        # The generated forward dynamics is shared with compiled callers: its dispatcher's
-        # type check stands in for the stride checks it does not make.
-        try:
-            status = entries[2](packed, q, qd, tau, h, qdd)
-        except TypeError:
-            q, qd, tau, h = _vectors(robot, q=q, qd=qd, tau=tau, h_e=h)
-            status = entries[2](packed, q, qd, tau, h, qdd)
-        if status == 1:
-            _vectors(robot, q=q, qd=qd, tau=tau, h_e=h)
-    else:
-        plain = (type(q) is type(qd) is type(tau) is _ND and q.ndim == qd.ndim == tau.ndim == 1
-                 and q.dtype is qd.dtype is tau.dtype is _F64)
-        if h_e is not None:
-            plain = plain and type(h_e) is _ND and h_e.ndim == 1 and h_e.dtype is _F64
-        status = _forward_code(packed, q, qd, tau, h, qdd) if plain else 1
-        if status == 1:
-            status = _forward_code(packed, *_vectors(robot, q=q, qd=qd, tau=tau, h_e=h), qdd)
+    q, qd, tau, h = _vectors(robot, q=q, qd=qd, tau=tau, h_e=zero_wrench if h_e is None else h_e)
+    # The generated forward dynamics is shared with compiled callers and has no stride checks:
+    # it is called through its dispatcher, on the converted vectors.
+    status = (entries[2] if entries else _forward_code)(packed, q, qd, tau, h, qdd)
     if status == 2:
         raise SingularInertiaError(f"robot {robot.name!r}: inertia matrix B(q) is not positive definite")
     return qdd
