@@ -193,6 +193,13 @@ def test_the_public_functions_name_bad_input_with_the_generated_module():
     for odd in (["auto"], np.array(["numeric"]), None):
         with pytest.raises(ValueError, match="dynamics: .* is not one of"):
             armlab.forward_dynamics(robot, z, z, z, dynamics=odd)
+    # A str subclass names the same choice, on the first call and on later ones alike.
+    fresh = armlab.load_robot(robot.name)
+    for _ in range(2):
+        np.testing.assert_array_equal(armlab.inertia_matrix(fresh, z, dynamics=np.str_("closed_form")),
+                                      armlab.inertia_matrix(fresh, z, dynamics="closed_form"))
+        np.testing.assert_array_equal(armlab.inverse_dynamics(fresh, list(z), z, z, dynamics=np.str_("auto")),
+                                      armlab.inverse_dynamics(fresh, z, z, z, dynamics="auto"))
     # "numeric" by another string object than the default: the kernels, not an error.
     np.testing.assert_array_equal(armlab.inertia_matrix(robot, z, dynamics="".join("numeric")),
                                   armlab.inertia_matrix(robot, z))

@@ -256,6 +256,8 @@ def _closed_form(robot: Robot, dynamics: str):
     its ``forward_dynamics`` (shared with compiled callers, so without the stride checks a
     direct call needs); False when the choice runs the numeric kernels.
     Kept with the packed robot."""
+    if isinstance(dynamics, str):
+        dynamics = str(dynamics)               # a str subclass (np.str_) names the same choice
     if type(dynamics) is str and dynamics == NUMERIC:
         return False
     if not (type(dynamics) is str and dynamics in _GENERATED_CHOICES):
