@@ -11,7 +11,8 @@ module, and lets one cached loop call any law, environment or plant model:
     address = kernel_address(rnea_into, (arrays_type, workspace_type, ...), types.none)
     call_none(address, (m, ws, q, qd, qdd, 1.0, h_e, tau))                   # compiled code
 
-The call uses numba's own calling convention for the argument types as the caller sees them,
+The call is the one numba's own lowering makes for a first-class function (its calling
+convention, through ``call_conv.call_function``) for the argument types as the caller sees them,
 so the types the address was compiled for must be the caller's, exactly (same dtypes,
 dimensions and tuple structure; array layout does not change the convention).  Exceptions
 raised by the callee propagate to the caller as in a direct call.
@@ -19,12 +20,9 @@ raised by the callee propagate to the caller as in a direct call.
 
 from __future__ import annotations
 
-import threading
-
 from llvmlite import ir
 from numba import types
 from numba.core import cgutils
-from numba.core.callconv import excinfo_t
 from numba.extending import intrinsic
 
 from armlab.errors import ArmlabError
@@ -34,7 +32,9 @@ __all__ = ["call_bool", "call_float", "call_int", "call_none", "call_status", "k
 
 
 def _indirect_call(restype):
-    """An intrinsic ``call(address, args_tuple) -> restype``."""
+    """An intrinsic ``call(address, args_tuple) -> restype``: the call numba's own lowering makes
+    for a first-class function given its compiled address (``call_conv.call_function`` with the
+    status check that propagates the callee's exception)."""
 
     @intrinsic
     def call(typingctx, address, args):
@@ -47,18 +47,13 @@ def _indirect_call(restype):
             argtypes = list(args.types)
             values = [builder.extract_value(packed, i) for i in range(len(argtypes))]
             conv = context.call_conv
-            function_type = conv.get_function_type(restype, argtypes)
-            callee = builder.inttoptr(address_value, function_type.as_pointer())
-            result_type = conv.get_return_type(restype).pointee
-            result = cgutils.alloca_once(builder, result_type)
-            builder.store(cgutils.get_null_value(result_type), result)
-            excinfo = cgutils.alloca_once(builder, ir.PointerType(excinfo_t), name="excinfo")
-            flat = list(conv._get_arg_packer(argtypes).as_arguments(builder, values))
-            code = builder.call(callee, [result, excinfo] + flat)
-            status = conv._get_return_status(builder, code, builder.load(excinfo))
-            with builder.if_then(status.is_error, likely=False):
+            pointer_type = conv.get_function_type(restype, argtypes).as_pointer()
+            callee = builder.bitcast(builder.inttoptr(address_value, ir.IntType(8).as_pointer()),
+                                     pointer_type)
+            status, result = conv.call_function(builder, callee, restype, argtypes, values)
+            with cgutils.if_unlikely(builder, status.is_error):
                 conv.return_status_propagate(builder, status)
-            return context.get_returned_value(builder, restype, builder.load(result))
+            return result
 
         return signature, codegen
 
@@ -88,9 +83,6 @@ _ADDRESSES: dict = {}
 # The same lookups by identity, for callers that pass the same argument-type tuple every time
 # (a module constant): hashing numba types costs microseconds a lookup, on every simulation.
 _BY_IDENTITY: dict = {}
-# Compiling a stated signature briefly lifts an entry point's compile ban (below, and
-# ``armlab.dynamics``); threads of a parallel sweep may ask for addresses at the same time.
-COMPILE_LOCK = threading.RLock()
 
 
 class IndirectCallError(ArmlabError, TypeError):
@@ -101,6 +93,8 @@ def kernel_address(dispatcher, argtypes: tuple, restype) -> int:
     """Machine address of ``dispatcher`` compiled for ``argtypes`` (compiled or loaded from
     numba's disk cache on first use; remembered for the process).
 
+    The address is the one numba's first-class functions call (the compile result's function
+    in numba's calling convention, the ``jit_addr`` of a ``FunctionType`` value).
     ``restype`` is the return type the caller's ``call_*`` expects: the caller reserves room
     for exactly that, so a function returning anything else (a law ending in ``return tau``)
     is refused here instead of overwriting the caller's stack."""
@@ -111,18 +105,8 @@ def kernel_address(dispatcher, argtypes: tuple, restype) -> int:
     address = _ADDRESSES.get(key)
     if address is None:
         argtypes = tuple(argtypes)
-        with COMPILE_LOCK:
-            result = dispatcher.overloads.get(argtypes)
-            if result is None:
-                # Entry points of armlab.dynamics refuse to compile from a call (one
-                # signature each); compiling a stated signature here is what they wait for.
-                can_compile = dispatcher._can_compile
-                dispatcher._can_compile = True
-                try:
-                    dispatcher.compile(argtypes)
-                finally:
-                    dispatcher._can_compile = can_compile
-                result = dispatcher.overloads[argtypes]
+        dispatcher.compile(argtypes)          # numba's own lock; a no-op once compiled or cached
+        result = dispatcher.overloads[argtypes]
         returned = result.signature.return_type
         if returned != restype:
             name = getattr(dispatcher, "__qualname__", None) or dispatcher.py_func.__qualname__
