@@ -6,7 +6,14 @@ from numba import njit, typeof, types
 
 import armlab
 from armlab.kernels import integrators
-from armlab.kernels.indirect import call_float, call_int, call_none, kernel_address, stack_address
+from armlab.kernels.indirect import (
+    borrowed,
+    call_float,
+    call_int,
+    call_none,
+    kernel_address,
+    stack_address,
+)
 from armlab.kernels.plant import forward_dynamics_packed, kinetic_energy_packed, pack_plant
 
 VEC = types.float64[::1]
@@ -150,3 +157,19 @@ def test_parameter_type_keys_tell_apart_what_numba_types_differently():
     record = np.zeros(2, dtype=[("a", "f8"), ("b", "f8")])
     other = np.zeros(2, dtype=[("a", "f8"), ("c", "i8")])
     assert key((record,)) != key((other,))
+
+
+@njit(cache=False)
+def _scale_borrowed(values, pair, factor):
+    a, (b, c) = borrowed((values, pair))
+    for i in range(a.shape[0]):
+        a[i] *= factor
+    b[0] = c[1] + factor
+    return a.sum() + b[0]
+
+
+def test_borrowed_arrays_are_the_same_memory():
+    values, b, c = np.arange(3.0), np.zeros(2), np.array([5.0, 7.0])
+    total = _scale_borrowed(values, (b, c), 2.0)
+    np.testing.assert_array_equal(values, [0.0, 2.0, 4.0])   # written through the borrowed view
+    assert b[0] == 9.0 and total == 15.0

@@ -43,6 +43,7 @@ from numba import njit
 from armlab.control.base import Controller, ProtocolError, Signal
 from armlab.control.joint_space import _check_reference, gain_matrix
 from armlab.kernels.dynamics import make_workspace, rnea_into
+from armlab.kernels.indirect import borrowed
 from armlab.kernels.integrators import law_entry, law_views
 from armlab.model.robot import Robot, RobotArrays
 from armlab.references import JointReference, reference_into
@@ -50,11 +51,9 @@ from armlab.references import JointReference, reference_into
 PARAMETER_NAMES = ("m", "mcx", "mcy", "mcz", "Ixx", "Ixy", "Ixz", "Iyy", "Iyz", "Izz", "Fv")
 
 
-# Allocation-free compiled code runs without reference counting (``_nrt=False``): with it,
-# every array taken out of a parameter tuple costs an atomic increment and decrement.
-kernel = njit(cache=True, _nrt=False)
+kernel = njit(cache=True)
 # The seed link's law is small: inlined into the loop that calls it.
-law_kernel = njit(cache=True, _nrt=False, inline="always")
+law_kernel = njit(cache=True, inline="always")
 
 
 @law_kernel
@@ -80,8 +79,8 @@ def slotine_li_1dof_law(t, q, qd, z, h_e, params, tau_out, zdot_out, signals_out
 @law_entry(slotine_li_1dof_law)
 def slotine_li_1dof_entry(cp, law, t, work, n, k, s):
     """(C4), (C5) of the 1-DoF link as the simulation loop calls it (``Controller.entry``)."""
-    q, qd, z, h_e, tau_out, zdot_out, signals_out = law_views(work, n, k, s)
-    slotine_li_1dof_law(t, q, qd, z, h_e, cp[0], tau_out, zdot_out, signals_out)
+    q, qd, z, h_e, tau_out, zdot_out, signals_out = law_views(borrowed(work), n, k, s)
+    slotine_li_1dof_law(t, q, qd, z, h_e, borrowed(cp[0]), tau_out, zdot_out, signals_out)
 
 
 @dataclass(frozen=True, eq=False)

@@ -16,7 +16,7 @@ from armlab.closed_form import ClosedFormUnavailable, choice_problem, inverse_dy
 from armlab.control.base import Controller, ProtocolError, Signal
 from armlab.dynamics import packed_copy
 from armlab.kernels.dynamics import gravity_into, make_workspace
-from armlab.kernels.indirect import call_none, kernel_address
+from armlab.kernels.indirect import borrowed, call_none, kernel_address
 from armlab.kernels.integrators import law_entry, law_views
 from armlab.model.robot import Robot
 from armlab.references import JointReference, reference_into
@@ -51,10 +51,9 @@ def _check_reference(reference, n, field="reference"):
         raise ProtocolError(f"{field}: has {reference.n} components, the model {n} joints")
 
 
-# The laws never allocate, so they run without reference counting (``_nrt=False``: no atomic
-# increment and decrement for every array taken out of ``params``), and they are inlined into
-# the loop that calls them (no call boundary passing the robot's arrays by value).
-law_kernel = njit(cache=True, _nrt=False, inline="always")
+# The laws are inlined into the entry that calls them (no call boundary passing the robot's
+# arrays by value).
+law_kernel = njit(cache=True, inline="always")
 _VEC = types.float64[::1]
 _INVERSE_DYNAMICS_TYPES = (_VEC,) * 5   # one tuple: kernel_address finds it by identity
 
@@ -85,8 +84,8 @@ def joint_pd_gravity_law(t, q, qd, z, h_e, params, tau_out, zdot_out, signals_ou
 @law_entry(joint_pd_gravity_law)
 def joint_pd_gravity_entry(cp, law, t, work, n, k, s):
     """(C1) as the simulation loop calls it (``Controller.entry``)."""
-    q, qd, z, h_e, tau_out, zdot_out, signals_out = law_views(work, n, k, s)
-    joint_pd_gravity_law(t, q, qd, z, h_e, cp[0], tau_out, zdot_out, signals_out)
+    q, qd, z, h_e, tau_out, zdot_out, signals_out = law_views(borrowed(work), n, k, s)
+    joint_pd_gravity_law(t, q, qd, z, h_e, borrowed(cp[0]), tau_out, zdot_out, signals_out)
 
 
 @dataclass(frozen=True, eq=False)
@@ -160,8 +159,8 @@ def joint_inverse_dynamics_law(t, q, qd, z, h_e, params, tau_out, zdot_out, sign
 @law_entry(joint_inverse_dynamics_law)
 def joint_inverse_dynamics_entry(cp, law, t, work, n, k, s):
     """(C2) as the simulation loop calls it (``Controller.entry``)."""
-    q, qd, z, h_e, tau_out, zdot_out, signals_out = law_views(work, n, k, s)
-    joint_inverse_dynamics_law(t, q, qd, z, h_e, cp[0], tau_out, zdot_out, signals_out)
+    q, qd, z, h_e, tau_out, zdot_out, signals_out = law_views(borrowed(work), n, k, s)
+    joint_inverse_dynamics_law(t, q, qd, z, h_e, borrowed(cp[0]), tau_out, zdot_out, signals_out)
 
 
 @dataclass(frozen=True, eq=False)

@@ -67,6 +67,7 @@ from numba import njit, typeof, types
 
 from armlab.disturbances import disturbance_into
 from armlab.kernels.indirect import (
+    borrowed,
     call_float,
     call_int,
     call_none,
@@ -80,9 +81,7 @@ from armlab.kernels.plant import forward_dynamics_packed, kinetic_energy_packed,
 (FN_LAW_ENTRY, FN_LAW, FN_ENV_TRAMPOLINE, FN_ENV, FN_FORWARD_DYNAMICS, FN_KINETIC_ENERGY,
  FN_MEASURE, FN_DISTURBANCE) = range(8)
 
-# The loop never allocates, so it runs without reference counting (no atomic increments for
-# every array taken out of the parameter tuples at every call).
-loop_kernel = njit(cache=True, nogil=True, _nrt=False)
+loop_kernel = njit(cache=True, nogil=True)
 
 
 def work_size(n: int, k: int, s: int) -> int:
@@ -145,10 +144,11 @@ _I64 = types.int64
 _IVEC = types.int64[::1]
 
 
-@njit(cache=True, _nrt=False)
+@njit(cache=True)
 def env_trampoline(ep, env, t, R_0e, p_0e, v_e, h_e_out):
     """The environment law at ``env`` called with the parameter tuple at ``ep``."""
-    call_none(env, (t, R_0e, p_0e, v_e, ep[0], h_e_out))
+    R_0e, p_0e, v_e, h_e_out = borrowed((R_0e, p_0e, v_e, h_e_out))
+    call_none(env, (t, R_0e, p_0e, v_e, borrowed(ep[0]), h_e_out))
 
 
 def _type_key(value):
@@ -224,7 +224,7 @@ def _addresses(law, env_law, cparams, eparams, forward_dynamics, kinetic_energy,
     ], dtype=np.int64)
 
 
-@njit(cache=True, _nrt=False, inline="always")
+@njit(cache=True, inline="always")
 def law_views(work, n, k, s):
     """(q, qd, z, h_e, tau_out, zdot_out, signals_out): the scratch views a law reads and
     writes, in the order of its arguments around ``params``.
@@ -239,7 +239,7 @@ def law_views(work, n, k, s):
             buffer_view(work, 3 * n + k + 6, k, f), buffer_view(work, 3 * n + 2 * k + 6, s, f))
 
 
-@njit(cache=True, _nrt=False, inline="always")
+@njit(cache=True, inline="always")
 def scratch_views(work, n, k, s):
     """The named scratch views of ``work`` (see :func:`work_size`): the law's first
     (:func:`law_views`), then the loop's own."""
@@ -274,21 +274,22 @@ def law_entry(law):
     like the laws, and marked with the law it inlines (the simulator uses it only with that
     law)."""
     def wrap(function):
-        entry = njit(cache=True, _nrt=False)(function)
+        entry = njit(cache=True)(function)
         entry.inlined_law = law
         return entry
     return wrap
 
 
-@njit(cache=True, _nrt=False)
+@njit(cache=True)
 def law_trampoline(cp, law, t, work, n, k, s):
     """The entry of a law without its own: the law at ``law`` called with the parameter
     tuple at ``cp`` (a CPointer to it) on the scratch views of ``work``."""
+    work = borrowed(work)
     q, qd, z, h_e, tau_out, zdot_out, signals_out = law_views(work, n, k, s)
-    call_none(law, (t, q, qd, z, h_e, cp[0], tau_out, zdot_out, signals_out))
+    call_none(law, (t, q, qd, z, h_e, borrowed(cp[0]), tau_out, zdot_out, signals_out))
 
 
-@njit(cache=True, _nrt=False, inline="always")
+@njit(cache=True, inline="always")
 def stage(fn, t, x, n, pp, cp, ep, dist, has_env, call_law, z_rate, lim, sc, xdot, work):
     """ẋ at (t, x) (S1, S2); returns the forward-dynamics status (0 ok, 2 B not PD)."""
     q, qd, z, tau_c, tau_a, tau_d, tau_p, h_e, zdot, sig, Re, pe, ve, qdd = sc[:14]
@@ -325,7 +326,7 @@ def stage(fn, t, x, n, pp, cp, ep, dist, has_env, call_law, z_rate, lim, sc, xdo
     return status
 
 
-@njit(cache=True, _nrt=False, inline="always")
+@njit(cache=True, inline="always")
 def check_state(fn, pp, x, n, q_lo, q_hi, ke_max, check_energy, q, qd):
     """(status, joint) of the divergence checks on x (0 when fine); q, qd scratch."""
     for i in range(x.shape[0]):
@@ -343,7 +344,7 @@ def check_state(fn, pp, x, n, q_lo, q_hi, ke_max, check_energy, q, qd):
     return 0, -1
 
 
-@njit(cache=True, _nrt=False, inline="always")
+@njit(cache=True, inline="always")
 def log_row(row, t, x, n, sc, out, layout):
     """Row ``row`` of the flat log ``out`` (blocks of :func:`log_columns`) from x and stage k₁.
 
@@ -393,6 +394,8 @@ def rk4_core(fn, pp, cp, ep, dist, x, work, fset, iset, lim, q_lo, q_hi, out):
     sampled, signal columns, then the log's layout (:func:`log_row`)]; x (m,) the initial
     state (overwritten); ``work`` scratch.
     """
+    fn, pp, dist, x, work, fset, iset, lim, q_lo, q_hi, out = borrowed(
+        (fn, pp, dist, x, work, fset, iset, lim, q_lo, q_hi, out))
     t0, dt, ke_max = fset[0], fset[1], fset[2]
     n, n_steps, every, log_every = iset[0], iset[1], iset[2], iset[3]
     has_env, energy_every, sampled = iset[4] != 0, iset[5], iset[6] != 0
@@ -443,6 +446,7 @@ def rk4_core(fn, pp, cp, ep, dist, x, work, fset, iset, lim, q_lo, q_hi, out):
 def rhs_core(fn, t, x, pp, cp, ep, dist, has_env, call_law, z_rate, lim, work, sig_width, xdot):
     """ẋ for the adaptive integrator: the same ``stage`` as the RK4 loop; returns its status.
     ż of the last call is left in ``work`` (:func:`zdot_slice`)."""
+    fn, x, pp, dist, lim, work, xdot = borrowed((fn, x, pp, dist, lim, work, xdot))
     n = int(pp[0])
     sc = scratch_views(work, n, x.shape[0] - 2 * n, sig_width)
     return stage(fn, t, x, n, pp, cp, ep, dist, has_env, call_law, z_rate, lim, sc, xdot, work)
@@ -451,6 +455,7 @@ def rhs_core(fn, t, x, pp, cp, ep, dist, has_env, call_law, z_rate, lim, work, s
 @loop_kernel
 def check_rows(fn, pp, xs, q_lo, q_hi, ke_max, work):
     """(row, status, joint) of the first row of xs failing the divergence checks (row −1 if none)."""
+    fn, pp, xs, q_lo, q_hi, work = borrowed((fn, pp, xs, q_lo, q_hi, work))
     n = int(pp[0])
     q = buffer_view(work, 0, n, np.float64)
     qd = buffer_view(work, n, n, np.float64)
@@ -465,6 +470,8 @@ def check_rows(fn, pp, xs, q_lo, q_hi, ke_max, work):
 def log_core(fn, ts, xs, pp, cp, ep, dist, has_env, call_law, lim, work, layout, out, start):
     """Stage k₁ at every (ts[r], xs[r]) logged into rows start + r (used after solve_ivp);
     ``layout`` of the log as in :func:`log_row`."""
+    fn, ts, xs, pp, dist, lim, work, layout, out = borrowed(
+        (fn, ts, xs, pp, dist, lim, work, layout, out))
     n = int(pp[0])
     sc = scratch_views(work, n, xs.shape[1] - 2 * n, layout[3:].sum())
     xdot = sc[15][0]
@@ -492,28 +499,34 @@ def core_address(name: str) -> int:
 
 # Entries: compiled per (controller, environment) parameter types, they only unbox the
 # parameters, put them on the stack and call the shared loop.  ``nogil`` lets gain sweeps run
-# on all cores.
+# on all cores.  Everything the loop receives is ``borrowed``: the caller (Python) keeps the
+# arrays alive for the whole call, so the loop, the laws and the kernels handle them without
+# numba's reference counting (an atomic increment and decrement for every array taken out of
+# a tuple or passed on: five times the run time of a small robot).
 @loop_kernel
 def rk4_run(core, fn, pp, cparams, eparams, dist, x, work, fset, iset, lim, q_lo, q_hi, out):
     """:func:`rk4_core` on these parameters: (status, rows written, step, joint)."""
-    return call_status(core, (fn, pp, stack_address(cparams), stack_address(eparams), dist, x,
-                              work, fset, iset, lim, q_lo, q_hi, out))
+    return call_status(core, borrowed((fn, pp, stack_address(borrowed(cparams)),
+                                       stack_address(borrowed(eparams)), dist, x, work, fset, iset,
+                                       lim, q_lo, q_hi, out)))
 
 
 @loop_kernel
 def rhs(core, fn, t, x, pp, cparams, eparams, dist, has_env, call_law, z_rate, lim, work,
         sig_width, xdot):
     """:func:`rhs_core` on these parameters."""
-    return call_int(core, (fn, t, x, pp, stack_address(cparams), stack_address(eparams), dist,
-                           has_env, call_law, z_rate, lim, work, sig_width, xdot))
+    return call_int(core, borrowed((fn, t, x, pp, stack_address(borrowed(cparams)),
+                                    stack_address(borrowed(eparams)), dist, has_env, call_law,
+                                    z_rate, lim, work, sig_width, xdot)))
 
 
 @loop_kernel
 def log_rows(core, fn, ts, xs, pp, cparams, eparams, dist, has_env, call_law, lim, work, layout,
              out, start):
     """:func:`log_core` on these parameters."""
-    call_none(core, (fn, ts, xs, pp, stack_address(cparams), stack_address(eparams), dist, has_env,
-                     call_law, lim, work, layout, out, start))
+    call_none(core, borrowed((fn, ts, xs, pp, stack_address(borrowed(cparams)),
+                              stack_address(borrowed(eparams)), dist, has_env, call_law, lim, work,
+                              layout, out, start)))
 
 
 @njit(cache=True)
