@@ -63,6 +63,7 @@ def loop_and_task_kernels(robot: Robot) -> None:
     """Compile the simulation loop, kinematics, references and task-space kernels."""
     from armlab.kernels import task_space as task
     from armlab.kernels.integrators import compile_shared
+    from armlab.kernels.linalg import task_solve_into
     from armlab.references import Constant, reference_into
     from armlab.task_references import PoseReference, pose_reference_into
 
@@ -79,10 +80,11 @@ def loop_and_task_kernels(robot: Robot) -> None:
     angles = np.zeros(3)
     for mode in (task.RELATIVE, task.ABSOLUTE):
         task.task_error_into(mode, ws.frame, 0, angles, qd, ws)
-        task.wrench_in_task_into(mode, 0, ws, np.zeros(6), ws.h_task)
+        phi = ws.x_e[3:] if mode == task.RELATIVE else ws.angles
+        task.wrench_in_task_into(mode, 0, ws.frame, phi, np.zeros(6), ws.mat[0], ws.T, ws.w6, ws.h_task)
     task.position_error_into(ws.frame, qd, ws)
     task.select_rows_into(rows, ws.JA, ws.A)
-    task.task_solve_into(ws.A, ws.rhs, 0.1, ws.G, ws.y)
+    task_solve_into(ws.A, ws.rhs, 0.1, ws.G, ws.y)
     _log_task_signals(ws, rows, np.zeros(64 + 2 * n))
 
 

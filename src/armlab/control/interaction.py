@@ -38,6 +38,7 @@ from armlab.control.task_space import (
     solve_and_apply,
 )
 from armlab.kernels.dynamics import make_workspace
+from armlab.kernels.linalg import task_solve_into
 from armlab.kernels.task_space import (
     compliant_frame_into,
     frame_from_vector,
@@ -46,7 +47,6 @@ from armlab.kernels.task_space import (
     position_error_into,
     select_rows_into,
     task_error_into,
-    task_solve_into,
     task_workspace,
 )
 from armlab.model.robot import Robot

@@ -28,6 +28,7 @@ from numba import njit
 from armlab.control.base import Controller, Signal
 from armlab.errors import ArmlabError
 from armlab.kernels.dynamics import bias_into, gravity_into, make_workspace, mass_matrix_into
+from armlab.kernels.linalg import task_solve_into
 from armlab.kernels.task_space import (
     ABSOLUTE,
     RELATIVE,
@@ -35,7 +36,6 @@ from armlab.kernels.task_space import (
     measure_into,
     select_rows_into,
     task_error_into,
-    task_solve_into,
     task_workspace,
     wrench_in_task_into,
 )
@@ -244,7 +244,8 @@ def inverse_dynamics_law(t, q, qd, z, h_e, params, tau_out, zdot_out, signals_ou
     task_error_into(mode, ws.frame, convention, angles, qd, ws)
     select_rows_into(task, ws.JA, ws.A)
     if with_force:
-        wrench_in_task_into(mode, convention, ws, h_e, ws.h_task)
+        phi = ws.x_e[3:] if mode == RELATIVE else ws.angles
+        wrench_in_task_into(mode, convention, ws.frame, phi, h_e, ws.mat[0], ws.T, ws.w6, ws.h_task)
     for r in range(k):
         acc = 0.0
         for c in range(k):

@@ -21,7 +21,7 @@ from __future__ import annotations
 
 from numba import njit
 
-from armlab.kernels.task_space import euler_xyz_from_matrix_into, euler_xyz_rate_inverse_into
+from armlab.kernels.rotations import euler_xyz_from_matrix_into, euler_xyz_rate_inverse_into
 
 
 @njit(cache=True)

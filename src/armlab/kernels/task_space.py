@@ -17,8 +17,8 @@ independent small displacements along and about Σ_a's axes; T is singular only 
 (T2)–(T3) are Siciliano (9.27)–(9.28); c = ḃ − J̇_{A_a} q̇ is computed directly from the
 second derivatives of (T1), see :func:`relative_error_into`.
 
-Also here: small allocation-free linear algebra (Gaussian elimination, symmetric Jacobi
-eigenvalues) for the k × n task systems of the controllers.
+The XYZ-angle kernels are in :mod:`armlab.kernels.rotations`, the small dense linear algebra
+(3-vectors, the task systems) in :mod:`armlab.kernels.linalg`.
 """
 
 from __future__ import annotations
@@ -28,7 +28,6 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from armlab.kernels.dynamics import cholesky_solve_inplace
 from armlab.kernels.kinematics import (
     analytic_jacobian_dot_qd_into,
     analytic_jacobian_into,
@@ -37,94 +36,20 @@ from armlab.kernels.kinematics import (
     jacobian_dot_qd_into,
     joint_frames_into,
 )
+from armlab.kernels.linalg import cross_into, det3, matTvec3, matvec3, singular_values_into
+from armlab.kernels.rotations import (
+    euler_xyz_from_matrix_into,
+    euler_xyz_matrix_into,
+    euler_xyz_rate_dot_into,
+    euler_xyz_rate_into,
+    euler_xyz_rate_inverse_into,
+)
 from armlab.spatial import (
     euler_angles_into,
     euler_rate_dot_times,
     euler_rate_matrix_into,
     euler_rates_from_omega,
 )
-
-SINGULAR_PIVOT = 1e-12
-
-
-@njit(cache=True)
-def euler_xyz_from_matrix_into(R, out):
-    """XYZ Euler angles (φ₁, φ₂, φ₃) of R = Rx(φ₁) Ry(φ₂) Rz(φ₃), φ₂ ∈ [−π/2, π/2] (T1)."""
-    out[1] = np.arctan2(R[0, 2], np.sqrt(R[0, 0] * R[0, 0] + R[0, 1] * R[0, 1]))
-    out[0] = np.arctan2(-R[1, 2], R[2, 2])
-    out[2] = np.arctan2(-R[0, 1], R[0, 0])
-
-
-@njit(cache=True)
-def euler_xyz_matrix_into(phi1, phi2, phi3, R):
-    """R = Rx(φ₁) Ry(φ₂) Rz(φ₃), (3, 3)."""
-    c1, s1 = np.cos(phi1), np.sin(phi1)
-    c2, s2 = np.cos(phi2), np.sin(phi2)
-    c3, s3 = np.cos(phi3), np.sin(phi3)
-    R[0, 0], R[0, 1], R[0, 2] = c2 * c3, -c2 * s3, s2
-    R[1, 0] = c1 * s3 + s1 * s2 * c3
-    R[1, 1] = c1 * c3 - s1 * s2 * s3
-    R[1, 2] = -s1 * c2
-    R[2, 0] = s1 * s3 - c1 * s2 * c3
-    R[2, 1] = s1 * c3 + c1 * s2 * s3
-    R[2, 2] = c1 * c2
-
-
-@njit(cache=True)
-def euler_xyz_rate_into(phi1, phi2, T):
-    """T(φ) of the XYZ angles, ω = T(φ) φ̇ (ω in the first frame), (3, 3); det T = cos φ₂.
-
-        T = [[1, 0, s₂], [0, c₁, −s₁ c₂], [0, s₁, c₁ c₂]]
-    """
-    c1, s1, c2, s2 = np.cos(phi1), np.sin(phi1), np.cos(phi2), np.sin(phi2)
-    T[0, 0], T[0, 1], T[0, 2] = 1.0, 0.0, s2
-    T[1, 0], T[1, 1], T[1, 2] = 0.0, c1, -s1 * c2
-    T[2, 0], T[2, 1], T[2, 2] = 0.0, s1, c1 * c2
-
-
-@njit(cache=True)
-def euler_xyz_rate_inverse_into(phi1, phi2, T_inv):
-    """T⁻¹(φ) of the XYZ angles, (3, 3); singular (inf) at cos φ₂ = 0.
-
-        T⁻¹ = [[1, s₁ s₂ / c₂, −c₁ s₂ / c₂], [0, c₁, s₁], [0, −s₁ / c₂, c₁ / c₂]]
-    """
-    c1, s1, c2, s2 = np.cos(phi1), np.sin(phi1), np.cos(phi2), np.sin(phi2)
-    T_inv[0, 0], T_inv[0, 1], T_inv[0, 2] = 1.0, s1 * s2 / c2, -c1 * s2 / c2
-    T_inv[1, 0], T_inv[1, 1], T_inv[1, 2] = 0.0, c1, s1
-    T_inv[2, 0], T_inv[2, 1], T_inv[2, 2] = 0.0, -s1 / c2, c1 / c2
-
-
-@njit(cache=True)
-def euler_xyz_rate_dot_into(phi1, phi2, dphi1, dphi2, T_dot):
-    """Ṫ(φ, φ̇) of the XYZ angles, (3, 3)."""
-    c1, s1, c2, s2 = np.cos(phi1), np.sin(phi1), np.cos(phi2), np.sin(phi2)
-    T_dot[0, 0], T_dot[0, 1], T_dot[0, 2] = 0.0, 0.0, c2 * dphi2
-    T_dot[1, 0], T_dot[1, 1], T_dot[1, 2] = 0.0, -s1 * dphi1, -c1 * c2 * dphi1 + s1 * s2 * dphi2
-    T_dot[2, 0], T_dot[2, 1], T_dot[2, 2] = 0.0, c1 * dphi1, -s1 * c2 * dphi1 - c1 * s2 * dphi2
-
-
-@njit(cache=True)
-def _cross_into(a, b, out):
-    x = a[1] * b[2] - a[2] * b[1]
-    y = a[2] * b[0] - a[0] * b[2]
-    z = a[0] * b[1] - a[1] * b[0]
-    out[0], out[1], out[2] = x, y, z
-
-
-@njit(cache=True)
-def _matvec3(A, v, out):
-    x = A[0, 0] * v[0] + A[0, 1] * v[1] + A[0, 2] * v[2]
-    y = A[1, 0] * v[0] + A[1, 1] * v[1] + A[1, 2] * v[2]
-    z = A[2, 0] * v[0] + A[2, 1] * v[1] + A[2, 2] * v[2]
-    out[0], out[1], out[2] = x, y, z
-
-
-@njit(cache=True)
-def _matTvec3(A, v, out):
-    x = A[0, 0] * v[0] + A[1, 0] * v[1] + A[2, 0] * v[2]
-    y = A[0, 1] * v[0] + A[1, 1] * v[1] + A[2, 1] * v[2]
-    z = A[0, 2] * v[0] + A[1, 2] * v[1] + A[2, 2] * v[2]
-    out[0], out[1], out[2] = x, y, z
 
 
 @njit(cache=True)
@@ -168,22 +93,22 @@ def relative_error_into(frame, R_e, o_e, J, v_e, a0, vec, mat, x_err, x_err_dot,
         dd[i] = v_e[i] - od_a[i]
         w_rel[i] = v_e[3 + i] - w_a[i]
     # Position: x̃_P = −R_aᵀΔ, x̃̇_P = −R_aᵀ(Δ̇ − ω_a × Δ).
-    _matTvec3(R_a, d, t1)
-    _cross_into(w_a, d, t2)
+    matTvec3(R_a, d, t1)
+    cross_into(w_a, d, t2)
     for i in range(3):
         x_err[i] = -t1[i]
         t3[i] = dd[i] - t2[i]
-    _matTvec3(R_a, t3, t1)
+    matTvec3(R_a, t3, t1)
     for i in range(3):
         x_err_dot[i] = -t1[i]
-    _cross_into(w_a, dd, t1)
-    _cross_into(wd_a, d, t3)
+    cross_into(w_a, dd, t1)
+    cross_into(wd_a, d, t3)
     for i in range(3):
         t1[i] = a0[i] - odd_a[i] - 2.0 * t1[i] - t3[i]
-    _cross_into(w_a, t2, t3)
+    cross_into(w_a, t2, t3)
     for i in range(3):
         t1[i] += t3[i]
-    _matTvec3(R_a, t1, t2)
+    matTvec3(R_a, t1, t2)
     for i in range(3):
         c_out[i] = -t2[i]
     # Orientation: R(φ) = R_aᵀ R_e.
@@ -192,20 +117,20 @@ def relative_error_into(frame, R_e, o_e, J, v_e, a0, vec, mat, x_err, x_err_dot,
             R_rel[r, c] = R_a[0, r] * R_e[0, c] + R_a[1, r] * R_e[1, c] + R_a[2, r] * R_e[2, c]
     euler_xyz_from_matrix_into(R_rel, phi)
     euler_xyz_rate_inverse_into(phi[0], phi[1], T_inv)
-    _matTvec3(R_a, w_rel, t1)
-    _matvec3(T_inv, t1, phid)
+    matTvec3(R_a, w_rel, t1)
+    matvec3(T_inv, t1, phid)
     euler_xyz_rate_dot_into(phi[0], phi[1], phid[0], phid[1], T_dot)
     for i in range(3):
         x_err[3 + i] = -phi[i]
         x_err_dot[3 + i] = -phid[i]
-    _cross_into(w_a, w_rel, t1)
+    cross_into(w_a, w_rel, t1)
     for i in range(3):
         t1[i] = a0[3 + i] - wd_a[i] - t1[i]
-    _matTvec3(R_a, t1, t2)
-    _matvec3(T_dot, phid, t3)
+    matTvec3(R_a, t1, t2)
+    matvec3(T_dot, phid, t3)
     for i in range(3):
         t2[i] -= t3[i]
-    _matvec3(T_inv, t2, t1)
+    matvec3(T_inv, t2, t1)
     for i in range(3):
         c_out[3 + i] = -t1[i]
     # J_{A_a} = T_A⁻¹ blockdiag(R_aᵀ, R_aᵀ) J.
@@ -214,137 +139,16 @@ def relative_error_into(frame, R_e, o_e, J, v_e, a0, vec, mat, x_err, x_err_dot,
         for i in range(3):
             t1[i] = J[i, j]
             t2[i] = J[3 + i, j]
-        _matTvec3(R_a, t1, t3)
+        matTvec3(R_a, t1, t3)
         JA_out[0, j], JA_out[1, j], JA_out[2, j] = t3[0], t3[1], t3[2]
-        _matTvec3(R_a, t2, t3)
-        _matvec3(T_inv, t3, t1)
+        matTvec3(R_a, t2, t3)
+        matvec3(T_inv, t3, t1)
         JA_out[3, j], JA_out[4, j], JA_out[5, j] = t1[0], t1[1], t1[2]
 
 
-@njit(cache=True)
-def solve_square_inplace(A, b):
-    """b ← A⁻¹ b by Gaussian elimination with partial pivoting; A (k, k) is overwritten.
-
-    Returns the smallest absolute pivot (0 means singular; b is then left unsolved)."""
-    k = b.shape[0]
-    smallest = np.inf
-    for col in range(k):
-        pivot = col
-        for r in range(col + 1, k):
-            if abs(A[r, col]) > abs(A[pivot, col]):
-                pivot = r
-        if abs(A[pivot, col]) < smallest:
-            smallest = abs(A[pivot, col])
-        if A[pivot, col] == 0.0:
-            return 0.0
-        if pivot != col:
-            for c in range(k):
-                A[col, c], A[pivot, c] = A[pivot, c], A[col, c]
-            b[col], b[pivot] = b[pivot], b[col]
-        for r in range(col + 1, k):
-            factor = A[r, col] / A[col, col]
-            for c in range(col, k):
-                A[r, c] -= factor * A[col, c]
-            b[r] -= factor * b[col]
-    for r in range(k - 1, -1, -1):
-        acc = b[r]
-        for c in range(r + 1, k):
-            acc -= A[r, c] * b[c]
-        b[r] = acc / A[r, r]
-    return smallest
 
 
-@njit(cache=True)
-def task_solve_into(A, rhs, damping, G, y_out):
-    """y with A y = rhs for the (k, n) task matrix A (T5).
 
-        damping = 0 and k = n:  y = A⁻¹ rhs                       (exact inverse)
-        otherwise:              y = (AᵀA + λ² I)⁻¹ Aᵀ rhs,  λ = damping   (damped least squares)
-
-    ``G`` (n, n) scratch.  Returns False if the system is singular (y_out is then zero).
-    """
-    k, n = A.shape
-    if damping == 0.0 and k == n:
-        for r in range(k):
-            y_out[r] = rhs[r]
-            for c in range(n):
-                G[r, c] = A[r, c]
-        if solve_square_inplace(G, y_out) < SINGULAR_PIVOT:
-            for r in range(n):
-                y_out[r] = 0.0
-            return False
-        return True
-    for r in range(n):
-        acc = 0.0
-        for i in range(k):
-            acc += A[i, r] * rhs[i]
-        y_out[r] = acc
-        for c in range(n):
-            acc = 0.0
-            for i in range(k):
-                acc += A[i, r] * A[i, c]
-            G[r, c] = acc
-        G[r, r] += damping * damping
-    if not cholesky_solve_inplace(G, y_out):
-        for r in range(n):
-            y_out[r] = 0.0
-        return False
-    return True
-
-
-@njit(cache=True)
-def singular_values_into(A, G, sv_out):
-    """Singular values of A (k, n), descending, into sv_out (n,); G (n, n) scratch.
-
-    Cyclic Jacobi rotations on G = AᵀA (symmetric), σ_i = √λ_i(G).
-    """
-    k, n = A.shape
-    for r in range(n):
-        for c in range(n):
-            acc = 0.0
-            for i in range(k):
-                acc += A[i, r] * A[i, c]
-            G[r, c] = acc
-    for _sweep in range(50):
-        off = 0.0
-        for r in range(n):
-            for c in range(r + 1, n):
-                off += G[r, c] * G[r, c]
-        if off < 1e-30:
-            break
-        for p in range(n):
-            for q in range(p + 1, n):
-                if G[p, q] == 0.0:
-                    continue
-                theta = (G[q, q] - G[p, p]) / (2.0 * G[p, q])
-                t = (1.0 if theta >= 0.0 else -1.0) / (abs(theta) + np.sqrt(theta * theta + 1.0))
-                cs = 1.0 / np.sqrt(t * t + 1.0)
-                sn = t * cs
-                for r in range(n):
-                    grp, grq = G[r, p], G[r, q]
-                    G[r, p] = cs * grp - sn * grq
-                    G[r, q] = sn * grp + cs * grq
-                for c in range(n):
-                    gpc, gqc = G[p, c], G[q, c]
-                    G[p, c] = cs * gpc - sn * gqc
-                    G[q, c] = sn * gpc + cs * gqc
-    for i in range(n):
-        sv_out[i] = np.sqrt(max(G[i, i], 0.0))
-    for i in range(n):
-        for j in range(i + 1, n):
-            if sv_out[j] > sv_out[i]:
-                sv_out[i], sv_out[j] = sv_out[j], sv_out[i]
-
-
-@njit(cache=True)
-def det3(A):
-    """Determinant of the top-left (3, 3) block of A."""
-    return (A[0, 0] * (A[1, 1] * A[2, 2] - A[1, 2] * A[2, 1])
-            - A[0, 1] * (A[1, 0] * A[2, 2] - A[1, 2] * A[2, 0])
-            + A[0, 2] * (A[1, 0] * A[2, 1] - A[1, 1] * A[2, 0]))
-
-
-# ------------------------------------------------------------------ controller building blocks
 
 RELATIVE, ABSOLUTE = 0, 1
 
@@ -483,26 +287,30 @@ def select_rows_into(task, A6, out):
 
 
 @njit(cache=True)
-def wrench_in_task_into(mode, convention, ws, h_e, h_out):
-    """h_A (6,), the wrench work-conjugate to the coordinates x (T7); call after
-    :func:`task_error_into`.
+def wrench_in_task_into(mode, convention, frame, phi, h_e, R_a, T, w, h_out):
+    """h_A (6,), the wrench work-conjugate to the task coordinates x (T7).
 
-    RELATIVE: h_A = T_Aᵀ(φ_{a,e}) blockdiag(R_aᵀ, R_aᵀ) h_e   (Siciliano (9.30));
-    ABSOLUTE: h_A = T_Aᵀ(φ_e) h_e   (power h_eᵀ v_e = h_Aᵀ ẋ with v_e = T_A ẋ).
+        RELATIVE: h_A = T_Aᵀ(φ_{a,e}) blockdiag(R_aᵀ, R_aᵀ) h_e   (Siciliano (9.30))
+        ABSOLUTE: h_A = T_Aᵀ(φ_e) h_e   (power h_eᵀ v_e = h_Aᵀ ẋ with v_e = T_A ẋ)
+
+    ``frame`` (24,) Σ_a's motion (its rotation R_a is read in RELATIVE mode); ``phi`` (3,) the
+    Euler angles of the current pose in the task coordinates: φ_{a,e} (XYZ, RELATIVE) or φ_e
+    (``convention``, ABSOLUTE), as :func:`task_error_into` leaves them in ``ws.x_e[3:]`` and
+    ``ws.angles``; ``h_e`` (6,) [N, N·m] in Σ_0.  ``R_a``, ``T`` (3, 3) and ``w`` (3,) scratch.
     """
-    R_a = ws.mat[0]
     if mode == RELATIVE:
+        frame_from_vector(frame, R_a)
         for i in range(3):
             h_out[i] = R_a[0, i] * h_e[0] + R_a[1, i] * h_e[1] + R_a[2, i] * h_e[2]
-            ws.w6[i] = R_a[0, i] * h_e[3] + R_a[1, i] * h_e[4] + R_a[2, i] * h_e[5]
-        euler_xyz_rate_into(ws.x_e[3], ws.x_e[4], ws.T)
+            w[i] = R_a[0, i] * h_e[3] + R_a[1, i] * h_e[4] + R_a[2, i] * h_e[5]
+        euler_xyz_rate_into(phi[0], phi[1], T)
     else:
         for i in range(3):
             h_out[i] = h_e[i]
-            ws.w6[i] = h_e[3 + i]
-        euler_rate_matrix_into(ws.angles, convention, ws.T)
+            w[i] = h_e[3 + i]
+        euler_rate_matrix_into(phi, convention, T)
     for i in range(3):
-        h_out[3 + i] = ws.T[0, i] * ws.w6[0] + ws.T[1, i] * ws.w6[1] + ws.T[2, i] * ws.w6[2]
+        h_out[3 + i] = T[0, i] * w[0] + T[1, i] * w[1] + T[2, i] * w[2]
 
 
 @njit(cache=True)
@@ -562,21 +370,21 @@ def compliant_frame_into(frame_d, zt, zt_dot, zt_ddot, vec, mat, frame_t):
         phi[i] = -zt[3 + i]
         phid[i] = -zt_dot[3 + i]
         phidd[i] = -zt_ddot[3 + i]
-    _matvec3(R_d, t1, u)
-    _matvec3(R_d, t2, v)
-    _matvec3(R_d, a, t1)                 # R_d ö^d
+    matvec3(R_d, t1, u)
+    matvec3(R_d, t2, v)
+    matvec3(R_d, a, t1)                 # R_d ö^d
     for i in range(3):
         frame_t[i] = frame_d[i] + u[i]
-    _cross_into(w_d, u, t2)
+    cross_into(w_d, u, t2)
     for i in range(3):
         frame_t[12 + i] = frame_d[12 + i] + t2[i] + v[i]
-    _cross_into(w_d, t2, a)              # ω_d × (ω_d × u)
+    cross_into(w_d, t2, a)              # ω_d × (ω_d × u)
     for i in range(3):
         t1[i] += a[i]
-    _cross_into(wd_d, u, a)
+    cross_into(wd_d, u, a)
     for i in range(3):
         t1[i] += a[i]
-    _cross_into(w_d, v, a)
+    cross_into(w_d, v, a)
     for i in range(3):
         frame_t[18 + i] = frame_d[18 + i] + t1[i] + 2.0 * a[i]
     euler_xyz_matrix_into(phi[0], phi[1], phi[2], R_rel)
@@ -586,14 +394,14 @@ def compliant_frame_into(frame_d, zt, zt_dot, zt_ddot, vec, mat, frame_t):
                                       + R_d[r, 2] * R_rel[2, c])
     euler_xyz_rate_into(phi[0], phi[1], T)
     euler_xyz_rate_dot_into(phi[0], phi[1], phid[0], phid[1], T_dot)
-    _matvec3(T, phid, t1)
-    _matvec3(R_d, t1, u)                 # w
-    _matvec3(T_dot, phid, t1)
-    _matvec3(T, phidd, t2)
+    matvec3(T, phid, t1)
+    matvec3(R_d, t1, u)                 # w
+    matvec3(T_dot, phid, t1)
+    matvec3(T, phidd, t2)
     for i in range(3):
         t1[i] += t2[i]
-    _matvec3(R_d, t1, t2)
-    _cross_into(w_d, u, t1)
+    matvec3(R_d, t1, t2)
+    cross_into(w_d, u, t1)
     for i in range(3):
         frame_t[15 + i] = w_d[i] + u[i]
         frame_t[21 + i] = wd_d[i] + t1[i] + t2[i]
