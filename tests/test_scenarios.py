@@ -1,6 +1,8 @@
 """Every bundled scenario runs (shortened); bad scenario files give one-line errors; a new
 controller is declared in its own file only; CLI."""
 
+import subprocess
+import sys
 from dataclasses import dataclass
 from typing import Literal
 
@@ -211,3 +213,11 @@ def test_string_options_of_every_kind_of_table_load(tmp_path):
     np.testing.assert_allclose(poses.environment.rest_position, [0, -0.2, 0.5])
     np.testing.assert_allclose(poses.environment.rest_rotation @ [1, 0, 0], [0, 0, 1], atol=1e-15)
 
+
+def test_the_scenario_loader_imports_no_edge_module():
+    code = ("import sys, armlab.scenarios as s; s.load_scenario('a11_compliance'); "
+            "edges = ('armlab.viz', 'armlab.commands', 'armlab.cli'); "
+            "print([m for m in sys.modules if m.startswith(edges)]); "
+            "import armlab.viz.experiments; print('armlab.viz.report' in sys.modules)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.split("\n")[:2] == ["[]", "False"]
