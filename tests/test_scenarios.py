@@ -11,7 +11,7 @@ import pytest
 
 from armlab.cli import main
 from armlab.control.joint_space import JointPDGravity
-from armlab.registry import scenario_type
+from armlab.registry import scenario_type, scenario_types
 from armlab.results import SimulationResult
 from armlab.scenarios import (
     ScenarioFileError,
@@ -212,6 +212,25 @@ def test_string_options_of_every_kind_of_table_load(tmp_path):
     poses = load_scenario("a11_compliance")
     np.testing.assert_allclose(poses.environment.rest_position, [0, -0.2, 0.5])
     np.testing.assert_allclose(poses.environment.rest_rotation @ [1, 0, 0], [0, 0, 1], atol=1e-15)
+
+
+def test_names_are_looked_up_among_the_subclasses_of_the_base_a_table_asks_for():
+    from armlab.disturbances import ConstantTorque, TorqueDisturbance
+    from armlab.references import Constant, JointReference
+
+    assert scenario_types(JointReference)["constant"].cls is Constant
+    assert scenario_types(TorqueDisturbance)["constant"].cls is ConstantTorque
+
+    @dataclass(frozen=True)
+    class Base:
+        pass
+
+    for name in ("First", "Second"):
+        scenario_type("same")(dataclass(frozen=True)(type(name, (Base,), {})))
+    with pytest.raises(TypeError, match="two Base classes are registered as 'same'"):
+        scenario_types(Base)
+    with pytest.raises(TypeError, match="above @dataclass"):
+        scenario_type("plain")(type("Plain", (), {}))
 
 
 def test_the_scenario_loader_imports_no_edge_module():

@@ -31,7 +31,7 @@ This module imports nothing of armlab, so every module that defines such a class
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, is_dataclass
 
 
 @dataclass(frozen=True)
@@ -51,6 +51,10 @@ def scenario_type(name: str, *, poses: dict[str, tuple[str, str]] | None = None)
     docstring for ``poses``)."""
 
     def register(cls: type) -> type:
+        if not is_dataclass(cls):
+            # The loader reads the dataclass fields: the decorator goes above @dataclass.
+            raise TypeError(f"@scenario_type({name!r}): {cls.__qualname__} is not a dataclass "
+                            "(put @scenario_type above @dataclass)")
         _DECLARED[cls] = ScenarioType(name, cls, dict(poses or {}))
         return cls
 

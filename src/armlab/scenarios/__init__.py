@@ -46,6 +46,7 @@ Every class a file names declares its name and the types of its fields where it 
 "none"]``); each key is read as its field's annotation says (``armlab.scenarios.tables``).
 Any number may be an arithmetic expression string (``"pi/3"``).  A bad file raises
 :class:`ScenarioFileError` whose message is one line, ``<file>: <field>: <what is wrong>``.
+The format and how to add a controller: ``docs/scenario-files.md``.
 """
 
 from __future__ import annotations
