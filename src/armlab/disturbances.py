@@ -22,11 +22,13 @@ is the dissipative reading F₂ q̇|q̇|, ``"seed"`` reproduces the seed's equat
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Literal
 
 import numpy as np
 from numba import njit
 
 from armlab.errors import ArmlabError
+from armlab.registry import scenario_type
 
 CONSTANT, SINUSOIDAL, STEP, QUADRATIC_FRICTION, COSINE_GRAVITY = 0, 1, 2, 3, 4
 
@@ -93,6 +95,7 @@ class TorqueDisturbance:
                 **{k: np.asarray(v).tolist() if not isinstance(v, str) else v for k, v in vars(self).items()}}
 
 
+@scenario_type("constant")
 @dataclass(frozen=True, eq=False)
 class ConstantTorque(TorqueDisturbance):
     """τ_d = value (n,) [N | N·m]."""
@@ -103,6 +106,7 @@ class ConstantTorque(TorqueDisturbance):
         return np.concatenate([[CONSTANT], _vector(self.value, n, "value")])
 
 
+@scenario_type("sinusoidal")
 @dataclass(frozen=True, eq=False)
 class SinusoidalTorque(TorqueDisturbance):
     """τ_d = amplitude sin(omega t + phase); amplitude [N | N·m], omega [rad/s], phase [rad]."""
@@ -116,6 +120,7 @@ class SinusoidalTorque(TorqueDisturbance):
                                _vector(self.omega, n, "omega"), _vector(self.phase, n, "phase")])
 
 
+@scenario_type("step")
 @dataclass(frozen=True, eq=False)
 class StepTorque(TorqueDisturbance):
     """τ_d = before until t_step [s], after from then on."""
@@ -129,12 +134,13 @@ class StepTorque(TorqueDisturbance):
                                _vector(self.after, n, "after")])
 
 
+@scenario_type("quadratic_friction")
 @dataclass(frozen=True, eq=False)
 class QuadraticFriction(TorqueDisturbance):
     """Unmodelled friction τ_d = −F₂ q̇|q̇| ("drag") or −F₂ q̇² ("seed"); F₂ [N·m·s²/rad²]."""
 
     coefficient: np.ndarray
-    form: str = "drag"
+    form: Literal["drag", "seed"] = "drag"
 
     def encode(self, n):
         if self.form not in ("drag", "seed"):
@@ -143,6 +149,7 @@ class QuadraticFriction(TorqueDisturbance):
                                [1.0 if self.form == "seed" else 0.0]])
 
 
+@scenario_type("cosine_gravity")
 @dataclass(frozen=True, eq=False)
 class CosineGravity(TorqueDisturbance):
     """Unmodelled gravity-like term τ_d = −G₂ cos q; G₂ [N·m]."""
@@ -164,6 +171,3 @@ def encode_disturbances(terms, n: int) -> np.ndarray:
             raise DisturbanceSpecError(f"disturbance: {term!r} is not a TorqueDisturbance")
     return np.concatenate([[float(len(terms))], *[t.encode(n) for t in terms]])
 
-
-DISTURBANCE_TYPES = {"constant": ConstantTorque, "sinusoidal": SinusoidalTorque, "step": StepTorque,
-                     "quadratic_friction": QuadraticFriction, "cosine_gravity": CosineGravity}

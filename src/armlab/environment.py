@@ -25,6 +25,7 @@ import numpy as np
 from armlab.control.base import Environment
 from armlab.errors import ArmlabError
 from armlab.kernels.environment import free_space_law, spring_law, wall_law
+from armlab.registry import scenario_type
 
 
 class EnvironmentSpecError(ArmlabError, ValueError):
@@ -82,6 +83,7 @@ class _Evaluate:
         return out
 
 
+@scenario_type("free_space")
 @dataclass(frozen=True)
 class FreeSpace(_Evaluate, Environment):
     """No contact: h_e = 0 (E1)."""
@@ -92,6 +94,7 @@ class FreeSpace(_Evaluate, Environment):
         return (np.zeros(1),)
 
 
+@scenario_type("spring", poses={"rest_pose": ("rest_position", "rest_rotation")})
 @dataclass(frozen=True)
 class Spring(_Evaluate, Environment):
     """Generalised spring (E2, E3): stiffness ``stiffness`` K (6, 6) or its diagonal (6,)
@@ -122,6 +125,7 @@ class Spring(_Evaluate, Environment):
                 "rest_rotation": self.rest_rotation.tolist()}
 
 
+@scenario_type("planar_wall")
 @dataclass(frozen=True)
 class PlanarWall(_Evaluate, Environment):
     """Unilateral elastic plane (E4) through ``point`` (3,) [m] with unit ``normal`` (3,)

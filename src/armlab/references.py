@@ -28,6 +28,7 @@ import numpy as np
 from numba import njit
 
 from armlab.errors import ArmlabError
+from armlab.registry import scenario_type
 
 CONSTANT, VIA_POINTS, SINUSOID, RAMP, SQUARE_ACCEL = 0, 1, 2, 3, 4
 
@@ -162,6 +163,7 @@ class JointReference:
         return out
 
 
+@scenario_type("constant")
 @dataclass(frozen=True, eq=False)
 class Constant(JointReference):
     """q_des = value (R1); ``value`` (n,) [m | rad]."""
@@ -173,6 +175,7 @@ class Constant(JointReference):
         return np.concatenate([[CONSTANT, value.shape[0]], value])
 
 
+@scenario_type("via_points")
 @dataclass(frozen=True, eq=False)
 class ViaPoints(JointReference):
     """Quintic rest-to-rest motion through ``values`` (m, n) reached at ``times`` (m,) (R2)."""
@@ -193,6 +196,7 @@ class ViaPoints(JointReference):
         return np.concatenate([[VIA_POINTS, values.shape[1], times.shape[0]], times, values.ravel()])
 
 
+@scenario_type("sinusoid")
 @dataclass(frozen=True, eq=False)
 class Sinusoid(JointReference):
     """q_des = center + amplitude sin(omega t + phase) (R3); per joint, scalars broadcast."""
@@ -209,6 +213,7 @@ class Sinusoid(JointReference):
         return np.concatenate([[SINUSOID, n], center, *parts])
 
 
+@scenario_type("ramp")
 @dataclass(frozen=True, eq=False)
 class Ramp(JointReference):
     """q_des from ``start`` at ``t_start`` with ``slope`` [/s] until ``end`` (R4)."""
@@ -228,6 +233,7 @@ class Ramp(JointReference):
         return np.concatenate([[RAMP, n], start, slope, end, [float(self.t_start)]])
 
 
+@scenario_type("square_wave_acceleration")
 @dataclass(frozen=True, eq=False)
 class SquareWaveAcceleration(JointReference):
     """q̈_des = ±amplitude, a square wave of ``period`` P [s] about ``center`` (R5)."""
@@ -244,6 +250,3 @@ class SquareWaveAcceleration(JointReference):
             raise ReferenceSpecError("period: must be positive")
         return np.concatenate([[SQUARE_ACCEL, n], center, amplitude, period])
 
-
-REFERENCE_TYPES = {"constant": Constant, "via_points": ViaPoints, "sinusoid": Sinusoid,
-                   "ramp": Ramp, "square_wave_acceleration": SquareWaveAcceleration}

@@ -32,6 +32,7 @@ from numba import njit
 
 from armlab.errors import ArmlabError
 from armlab.references import quintic
+from armlab.registry import scenario_type
 from armlab.spatial import euler_matrix
 
 
@@ -137,6 +138,7 @@ def _check_rotation(R, name: str) -> np.ndarray:
     return R
 
 
+@scenario_type("pose", poses={"poses": ("positions", "rotations")})
 @dataclass(frozen=True)
 class PoseReference:
     """Desired end-effector poses Σ_d(t) through via-poses (R6); one pose = constant.
@@ -201,6 +203,7 @@ class PoseReference:
                 "positions": self.positions.tolist(), "rotations": self.rotations.tolist()}
 
 
+@scenario_type("force")
 @dataclass(frozen=True)
 class ForceReference:
     """Desired force f_d(t) (3,) [N] in Σ_0 (the force the end effector exerts): ``initial``

@@ -47,6 +47,7 @@ from armlab.kernels.indirect import borrowed
 from armlab.kernels.integrators import law_entry, law_views
 from armlab.model.robot import Robot, RobotArrays
 from armlab.references import JointReference, reference_into
+from armlab.registry import scenario_type
 
 PARAMETER_NAMES = ("m", "mcx", "mcy", "mcz", "Ixx", "Ixy", "Ixz", "Iyy", "Iyz", "Izz", "Fv")
 
@@ -83,6 +84,7 @@ def slotine_li_1dof_entry(cp, law, t, work, n, k, s):
     slotine_li_1dof_law(t, q, qd, z, h_e, borrowed(cp[0]), tau_out, zdot_out, signals_out)
 
 
+@scenario_type("slotine_li_1dof")
 @dataclass(frozen=True, eq=False)
 class SlotineLi1DoF(Controller):
     """Slotine–Li adaptive control of the seed's 1-DoF link (C4)–(C7), π = [I, F, G].
@@ -281,6 +283,7 @@ def standard_parameters(robot: Robot) -> np.ndarray:
     return np.array(out)
 
 
+@scenario_type("slotine_li")
 @dataclass(frozen=True, eq=False)
 class SlotineLi(Controller):
     """Slotine–Li adaptive control (C4)–(C6) for any serial robot, regressor (C8).

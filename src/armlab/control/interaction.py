@@ -21,6 +21,7 @@ with C_F = K_F + K_I/s; the integral ∫(f_d − f_e) dt is the controller state
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Literal
 
 import numpy as np
 from numba import njit
@@ -50,11 +51,13 @@ from armlab.kernels.task_space import (
     task_workspace,
 )
 from armlab.model.robot import Robot
+from armlab.registry import scenario_type
 from armlab.task_references import ForceReference, PoseReference, force_reference_into, pose_reference_into
 
 ALL6 = (0, 1, 2, 3, 4, 5)
 
 
+@scenario_type("compliance")
 @dataclass(frozen=True)
 class ComplianceControl(OperationalPD):
     """Compliance control (seed A11; Siciliano (9.15)): PD + gravity in Σ_d,
@@ -67,10 +70,11 @@ class ComplianceControl(OperationalPD):
     component may be controlled (``task`` default: all six, in Σ_d's axes).
     """
 
-    task: tuple = ALL6
-    frame: str = "desired"
+    task: tuple[int, ...] = ALL6
+    frame: Literal["base", "desired"] = "desired"
 
 
+@scenario_type("impedance")
 @dataclass(frozen=True)
 class ImpedanceControl(TaskController):
     """Impedance control (seed A12; Siciliano (9.29)–(9.31)), inverse dynamics with the
@@ -86,7 +90,7 @@ class ImpedanceControl(TaskController):
     """
 
     mass: object = 1.0
-    frame: str = "desired"
+    frame: Literal["base", "desired"] = "desired"
 
     needs_inverse = True
     law = inverse_dynamics_law
@@ -144,6 +148,7 @@ def admittance_law(t, q, qd, z, h_e, params, tau_out, zdot_out, signals_out):
         signals_out[start + i] = frame_t[i]
 
 
+@scenario_type("admittance")
 @dataclass(frozen=True)
 class AdmittanceControl(TaskController):
     """Admittance control (seed A13; Siciliano §9.3), law (C13) in ``admittance_law``.
@@ -159,7 +164,7 @@ class AdmittanceControl(TaskController):
     mass_t: object = 1.0
     kd_t: object = 1.0
     kp_t: object = 1.0
-    frame: str = "desired"
+    frame: Literal["desired"] = "desired"
 
     needs_inverse = True
     law = admittance_law
@@ -298,6 +303,7 @@ class _ForceBase(Controller):
 _ORIGIN = PoseReference.constant(np.zeros(3), np.eye(3))
 
 
+@scenario_type("force")
 @dataclass(frozen=True)
 class ForceControl(_ForceBase):
     """Force control with an inner position or velocity loop (seed A14; Siciliano §9.4),
@@ -318,7 +324,7 @@ class ForceControl(_ForceBase):
     seed.
     """
 
-    inner: str = "position"
+    inner: Literal["position", "velocity"] = "position"
     x_F0: object = None
 
     def __post_init__(self):
@@ -343,6 +349,7 @@ class ForceControl(_ForceBase):
         return self._params(_ORIGIN, 1.0 if self.inner == "position" else 0.0)
 
 
+@scenario_type("parallel_force_position")
 @dataclass(frozen=True)
 class ParallelForcePosition(_ForceBase):
     """Parallel force/position control (seed A15; Siciliano §9.4.3), law (C15):

@@ -8,6 +8,7 @@ Errors are q_err = q_des − q (the seed's q̃).  Notation: ``docs/notation.md``
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Literal
 
 import numpy as np
 from numba import njit, types
@@ -20,6 +21,7 @@ from armlab.kernels.indirect import borrowed, call_none, kernel_address
 from armlab.kernels.integrators import law_entry, law_views
 from armlab.model.robot import Robot
 from armlab.references import JointReference, reference_into
+from armlab.registry import scenario_type
 
 COMPENSATION = {"online": 0, "desired": 1, "none": 2}
 
@@ -88,6 +90,7 @@ def joint_pd_gravity_entry(cp, law, t, work, n, k, s):
     joint_pd_gravity_law(t, q, qd, z, h_e, borrowed(cp[0]), tau_out, zdot_out, signals_out)
 
 
+@scenario_type("joint_pd_gravity")
 @dataclass(frozen=True, eq=False)
 class JointPDGravity(Controller):
     """Joint-space PD with gravity compensation (seed A6).
@@ -107,7 +110,7 @@ class JointPDGravity(Controller):
     reference: JointReference
     kp: np.ndarray
     kd: np.ndarray
-    compensation: str = "online"
+    compensation: Literal["online", "desired", "none"] = "online"
     law = joint_pd_gravity_law
     entry = joint_pd_gravity_entry
 
@@ -163,6 +166,7 @@ def joint_inverse_dynamics_entry(cp, law, t, work, n, k, s):
     joint_inverse_dynamics_law(t, q, qd, z, h_e, borrowed(cp[0]), tau_out, zdot_out, signals_out)
 
 
+@scenario_type("joint_inverse_dynamics")
 @dataclass(frozen=True, eq=False)
 class JointInverseDynamics(Controller):
     """Joint-space inverse dynamics (computed torque) with a PD outer loop (seed A7).
@@ -190,7 +194,7 @@ class JointInverseDynamics(Controller):
     reference: JointReference
     kp: np.ndarray
     kd: np.ndarray
-    dynamics: str = "auto"
+    dynamics: Literal["auto", "closed_form", "numeric"] = "auto"
     law = joint_inverse_dynamics_law
     entry = joint_inverse_dynamics_entry
 

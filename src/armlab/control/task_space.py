@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import warnings
 from dataclasses import dataclass, field
+from typing import Literal
 
 import numpy as np
 from numba import njit
@@ -40,6 +41,7 @@ from armlab.kernels.task_space import (
     wrench_in_task_into,
 )
 from armlab.model.robot import Robot
+from armlab.registry import scenario_type
 from armlab.spatial import euler_code, euler_from_matrix
 from armlab.task_references import PoseReference, pose_reference_into
 
@@ -88,8 +90,8 @@ class TaskController(Controller):
     reference: PoseReference
     kp: object
     kd: object
-    task: tuple = (0, 1, 2)
-    frame: str = "base"
+    task: tuple[int, ...] = (0, 1, 2)
+    frame: Literal["base", "desired"] = "base"
     euler: str = "zyz"
     angle_reference: object = None
     damping: float = 0.0
@@ -281,6 +283,7 @@ def solve_and_apply(m, dws, ws, q, qd, h_e, compensate, tau_out):
         tau_out[i] += acc
 
 
+@scenario_type("operational_pd")
 @dataclass(frozen=True)
 class OperationalPD(TaskController):
     """Operational-space PD with gravity compensation (seed A9; Siciliano (8.110)):
@@ -299,6 +302,7 @@ class OperationalPD(TaskController):
         return self._common()
 
 
+@scenario_type("operational_inverse_dynamics")
 @dataclass(frozen=True)
 class OperationalInverseDynamics(TaskController):
     """Operational-space inverse dynamics (seed A10; Siciliano (8.114)–(8.115)):

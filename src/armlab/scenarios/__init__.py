@@ -1,6 +1,7 @@
-"""Scenario files: one TOML file per seed experiment, loaded into a runnable :class:`Scenario`.
+"""Scenario files: one TOML file per experiment, loaded into a runnable :class:`Scenario`.
 
-A scenario file (bundled ones live next to this module; ``armlab scenarios`` lists them)::
+A scenario file (bundled ones live next to this module and in ``interaction/``; ``armlab
+scenarios`` lists them)::
 
     title = "A6 — PD with online gravity compensation"
     assignment = "A6"
@@ -16,147 +17,86 @@ A scenario file (bundled ones live next to this module; ``armlab scenarios`` lis
     # dynamics ("auto" | "closed_form" | "numeric": the plant's forward dynamics)
 
     [controller]
-    type = "joint_pd_gravity"              # see CONTROLLERS
+    type = "joint_pd_gravity"              # a registered controller (armlab.registry)
     model = "prp"                          # optional: the controller's model (default: plant)
     model_link_mass = { link4 = 0.16 }     # optional: model mismatch
     kp = [25, 0.5, 10]                     # remaining keys: the controller's fields
     kd = [10, 0.08, 3]
     compensation = "online"
 
-    [controller.reference]                 # see armlab.references.REFERENCE_TYPES
+    [controller.reference]                 # a JointReference: its type and fields
     type = "constant"
     value = [0.1, "pi/3", 0.05]
 
-    [[disturbance]]                        # zero or more, see armlab.disturbances
+    [[disturbance]]                        # zero or more TorqueDisturbance terms
     type = "sinusoidal"
     amplitude = [0, 0.05, 0.5]
     omega = 3.0
 
+    [environment]                          # optional (default: free space)
+    type = "spring"
+    stiffness = [0, 0, 1e4, 10, 0, 0]
+    rest_pose = [0, -0.2, 0.5, "pi/2", "-pi/2", 0]   # rest_position and rest_rotation (ZYZ)
+
+The task-space controllers read their ``reference`` as via-poses (``times``, ``poses``
+[x, y, z, φ, ϑ, ψ], ``euler``) and the force controllers a ``[controller.force]`` table.
+
+Every class a file names declares its name and the types of its fields where it is defined
+(``@scenario_type("joint_pd_gravity")``, ``compensation: Literal["online", "desired",
+"none"]``); each key is read as its field's annotation says (``armlab.scenarios.tables``).
 Any number may be an arithmetic expression string (``"pi/3"``).  A bad file raises
 :class:`ScenarioFileError` whose message is one line, ``<file>: <field>: <what is wrong>``.
+The format and how to add a controller: ``docs/scenario-files.md``.
 """
 
 from __future__ import annotations
 
+import importlib
 import re
 import tomllib
 from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
 
-import numpy as np
-
 from armlab.closed_form import choice_problem
-from armlab.control.adaptive import SlotineLi, SlotineLi1DoF
-from armlab.control.joint_space import JointInverseDynamics, JointPDGravity
-from armlab.disturbances import DISTURBANCE_TYPES
+from armlab.control.adaptive import SlotineLi1DoF
+from armlab.control.base import Controller, Environment
+from armlab.disturbances import TorqueDisturbance
 from armlab.errors import ArmlabError
 from armlab.model.robot import Robot
-from armlab.model.toml_io import evaluate_expression
-from armlab.references import REFERENCE_TYPES
+from armlab.scenarios.tables import ScenarioFileError, build, integer, numbers, robot
 
-CONTROLLERS = {"joint_pd_gravity": JointPDGravity, "joint_inverse_dynamics": JointInverseDynamics,
-               "slotine_li_1dof": SlotineLi1DoF, "slotine_li": SlotineLi}
+# The modules whose classes scenario files name: each registers its own (armlab.registry).
+DECLARING_MODULES = ("armlab.control.joint_space", "armlab.control.adaptive", "armlab.control.task_space",
+                     "armlab.control.interaction", "armlab.environment", "armlab.references",
+                     "armlab.task_references", "armlab.disturbances")
+for _module in DECLARING_MODULES:
+    importlib.import_module(_module)
+
 SIMULATION_KEYS = {"t_final", "dt", "q0", "qd0", "method", "control_period", "torque_limit",
                    "log_every", "limit_margin", "max_kinetic_energy", "rtol", "atol", "dynamics"}
 TOP_KEYS = {"title", "assignment", "description", "plant", "plant_link_mass", "simulation",
-            "controller", "disturbance"}
+            "controller", "disturbance", "environment"}
 
-
-class ScenarioFileError(ArmlabError, ValueError):
-    """A scenario file that cannot be run; ``str()`` is ``file: field: reason``."""
-
-    def __init__(self, file, field: str, reason: str):
-        self.file, self.field, self.reason = str(file), field, reason
-        super().__init__(f"{self.file}: {field}: {reason}")
-
-
-def _number(value, file, where):
-    if isinstance(value, bool):
-        raise ScenarioFileError(file, where, "expected a number, got a boolean")
-    if isinstance(value, (int, float)):
-        return float(value)
-    if isinstance(value, str):
-        try:
-            return evaluate_expression(value, {})
-        except Exception as error:  # any parse problem becomes the file's one-line error
-            raise ScenarioFileError(file, where, f"cannot evaluate {value!r} ({error})") from None
-    raise ScenarioFileError(file, where, f"expected a number, got {value!r}")
-
-
-def _numbers(value, file, where):
-    """Numbers, lists and nested lists of numbers (expressions allowed) → floats/arrays."""
-    if isinstance(value, list):
-        return np.array([_numbers(v, file, f"{where}[{i}]") for i, v in enumerate(value)])
-    return _number(value, file, where)
-
-
-def _robot(name, overrides, file, where) -> Robot:
-    from armlab.robots import load_robot
-
-    if not isinstance(name, str):
-        raise ScenarioFileError(file, where, f"expected a robot name or file, got {name!r}")
-    path = Path(name)
-    if path.suffix and not path.is_absolute():
-        path = Path(file).parent / path
-    try:
-        robot = load_robot(str(path) if path.suffix else name)
-    except ArmlabError as error:
-        raise ScenarioFileError(file, where, str(error)) from None
-    if not isinstance(overrides, dict):
-        raise ScenarioFileError(file, f"{where}_link_mass", "expected a table {link = mass}")
-    for link, mass in overrides.items():
-        if link not in [lk.name for lk in robot.links]:
-            raise ScenarioFileError(file, f"{where}_link_mass.{link}",
-                                    f"no such link in {robot.name} "
-                                    f"({', '.join(lk.name for lk in robot.links)})")
-        try:
-            robot = robot.with_link_mass(link, _number(mass, file, f"{where}_link_mass.{link}"))
-        except ValueError as error:
-            raise ScenarioFileError(file, f"{where}_link_mass.{link}", str(error)) from None
-    return robot
-
-
-def _build(kinds: dict, table, file, where, extra=None):
-    """An object of ``kinds[table["type"]]`` from the table's other keys."""
-    if not isinstance(table, dict):
-        raise ScenarioFileError(file, where, "expected a table")
-    kind = table.get("type")
-    if kind not in kinds:
-        raise ScenarioFileError(file, f"{where}.type", f"unknown type {kind!r} (use {', '.join(kinds)})")
-    cls = kinds[kind]
-    known = set(cls.__dataclass_fields__)
-    arguments = dict(extra or {})
-    for key, value in table.items():
-        if key == "type" or key in arguments:
-            continue
-        if key not in known:
-            raise ScenarioFileError(file, f"{where}.{key}",
-                                    f"unknown key for {kind} "
-                                    f"(use {', '.join(sorted(known - set(arguments)))})")
-        arguments[key] = value if isinstance(value, str) and key in ("compensation", "form") \
-            else _numbers(value, file, f"{where}.{key}")
-    try:
-        return cls(**arguments)
-    except ArmlabError as error:
-        raise ScenarioFileError(file, where, str(error)) from None
-    except TypeError as error:
-        raise ScenarioFileError(file, where, str(error)) from None
+__all__ = ["Scenario", "ScenarioFileError", "bundled_scenario_names", "list_scenarios",
+           "load_scenario", "load_scenario_file", "scenario_path"]
 
 
 @dataclass(frozen=True)
 class Scenario:
-    """A runnable experiment: plant, controller, disturbances and simulation settings."""
+    """A runnable experiment: plant, controller, disturbances, environment and simulation
+    settings."""
 
     name: str
     title: str
     assignment: str
     description: str
     plant: Robot
-    controller: object
+    controller: Controller
     disturbance: tuple = ()
     simulation: dict = field(default_factory=dict)
     source: str = ""
+    environment: Environment | None = None
 
     def run(self, *, t_final: float | None = None, method: str | None = None, **overrides):
         """Simulate this scenario (``armlab.simulate``); ``t_final``/``method`` shorten or switch it."""
@@ -178,15 +118,26 @@ class Scenario:
             raise ScenarioFileError(self.source or self.name, f"simulation.{field}", reason) from None
 
     def _simulate(self, settings: dict, meta: dict):
-        from armlab.simulation import simulate
+        """Simulate; a controller with a ``check`` of its run (the task-space controllers warn
+        of a near-singular task Jacobian) checks it afterwards, also a diverged run."""
+        from armlab.simulation import SimulationDiverged, simulate
 
         if isinstance(self.controller, SlotineLi1DoF):
             # What the seed plots but the controller cannot know: the plant's [I, F, G].
             from armlab.control.adaptive import link1_parameters
 
             meta["true_parameters"] = link1_parameters(self.plant).tolist()
-        return simulate(self.plant, self.controller, disturbance=list(self.disturbance) or None,
-                        meta=meta, **settings)
+        check = getattr(self.controller, "check", None)
+        try:
+            result = simulate(self.plant, self.controller, disturbance=list(self.disturbance) or None,
+                              environment=self.environment, meta=meta, **settings)
+        except SimulationDiverged as error:
+            if check is not None:
+                check(error.result)
+            raise
+        if check is not None:
+            check(result)
+        return result
 
 
 def read_scenario_toml(path: Path) -> dict:
@@ -203,13 +154,8 @@ def read_scenario_toml(path: Path) -> dict:
         raise ScenarioFileError(path, "toml", str(error)) from None
 
 
-def plant_and_settings(data: dict, path) -> tuple[Robot, dict]:
-    """The plant robot and the checked ``[simulation]`` keyword arguments of a scenario."""
-    for key in ("plant", "simulation", "controller"):
-        if key not in data:
-            raise ScenarioFileError(path, key, "missing")
-    plant = _robot(data["plant"], data.get("plant_link_mass", {}), path, "plant")
-    simulation = data["simulation"]
+def _settings(simulation, path) -> dict:
+    """The checked ``[simulation]`` keyword arguments of ``armlab.simulate``."""
     if not isinstance(simulation, dict):
         raise ScenarioFileError(path, "simulation", "expected a table")
     settings = {}
@@ -222,64 +168,50 @@ def plant_and_settings(data: dict, path) -> tuple[Robot, dict]:
         if key in ("method", "dynamics"):
             settings[key] = str(value)
         elif key == "log_every":
-            settings[key] = int(_number(value, path, f"simulation.{key}"))
+            settings[key] = integer(value, path, f"simulation.{key}")
         else:
-            settings[key] = _numbers(value, path, f"simulation.{key}")
+            settings[key] = numbers(value, path, f"simulation.{key}")
     for key in ("t_final", "dt", "q0"):
         if key not in settings:
             raise ScenarioFileError(path, f"simulation.{key}", "missing")
-    return plant, settings
+    return settings
+
+
+def _disturbance(terms, plant: Robot, path) -> tuple:
+    """The ``[[disturbance]]`` terms, checked against the plant's joints."""
+    if not isinstance(terms, list):
+        raise ScenarioFileError(path, "disturbance", "expected an array of tables [[disturbance]]")
+    disturbance = tuple(build(TorqueDisturbance, term, path, f"disturbance[{i}]")
+                        for i, term in enumerate(terms))
+    for i, term in enumerate(disturbance):
+        try:
+            term.encode(plant.n)
+        except ArmlabError as error:
+            raise ScenarioFileError(path, f"disturbance[{i}]", str(error)) from None
+    return disturbance
 
 
 def load_scenario_file(path) -> Scenario:
     """Read and check a scenario file (see the module docstring)."""
     path = Path(path)
     data = read_scenario_toml(path)
-    if _is_extension(data):
-        from armlab.interaction_scenarios import load_interaction_scenario
-
-        return load_interaction_scenario(path, data)
     unknown = set(data) - TOP_KEYS
     if unknown:
         raise ScenarioFileError(path, sorted(unknown)[0], f"unknown key (use {', '.join(sorted(TOP_KEYS))})")
-    plant, settings = plant_and_settings(data, path)
-    table = dict(data["controller"])
-    model = _robot(table.pop("model", data["plant"]), table.pop("model_link_mass", {}), path,
-                   "controller.model")
-    if "reference" not in table:
-        raise ScenarioFileError(path, "controller.reference", "missing")
-    reference = _build(REFERENCE_TYPES, table.pop("reference"), path, "controller.reference")
-    try:
-        reference.data  # noqa: B018 — validates the reference's numbers now, naming the field
-    except ArmlabError as error:
-        raise ScenarioFileError(path, "controller.reference", str(error)) from None
-    controller = _build(CONTROLLERS, table, path, "controller", {"model": model, "reference": reference})
-    terms = data.get("disturbance", [])
-    if not isinstance(terms, list):
-        raise ScenarioFileError(path, "disturbance", "expected an array of tables [[disturbance]]")
-    disturbance = tuple(_build(DISTURBANCE_TYPES, t, path, f"disturbance[{i}]") for i, t in enumerate(terms))
-    for i, term in enumerate(disturbance):
-        try:
-            term.encode(plant.n)
-        except ArmlabError as error:
-            raise ScenarioFileError(path, f"disturbance[{i}]", str(error)) from None
+    for key in ("plant", "simulation", "controller"):
+        if key not in data:
+            raise ScenarioFileError(path, key, "missing")
+    plant = robot(data["plant"], data.get("plant_link_mass", {}), path, "plant")
+    settings = _settings(data["simulation"], path)
+    controller = build(Controller, data["controller"], path, "controller", plant=data["plant"])
+    disturbance = _disturbance(data.get("disturbance", []), plant, path)
+    environment = None
+    if "environment" in data:
+        environment = build(Environment, data["environment"], path, "environment")
     return Scenario(name=path.stem, title=str(data.get("title", path.stem)),
                     assignment=str(data.get("assignment", "")), description=str(data.get("description", "")),
                     plant=plant, controller=controller, disturbance=disturbance, simulation=settings,
-                    source=str(path))
-
-
-def _is_extension(data: dict) -> bool:
-    """True for a task-space/interaction scenario (A9–A15), read by ``armlab.interaction_scenarios``."""
-    controller = data.get("controller", {})
-    if "environment" not in data and not (isinstance(controller, dict) and controller.get("type")
-                                          and controller.get("type") not in CONTROLLERS):
-        return False
-    try:
-        from armlab.interaction_scenarios import is_interaction_scenario
-    except ImportError:
-        return False
-    return is_interaction_scenario(data)
+                    source=str(path), environment=environment)
 
 
 def _bundled_files() -> dict[str, Path]:

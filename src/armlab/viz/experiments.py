@@ -1,4 +1,5 @@
-"""The report's experiments, discovered from the scenario registry (``armlab.scenarios``).
+"""The report's experiments (:class:`Experiment`), discovered from the scenario registry
+(``armlab.scenarios``).
 
 A scenario belongs to the report of robot R when its plant is R, a variant of R's file
 (``prp_actuated`` for ``prp``), or one of R's companion robots: the seed's A8 studies a
@@ -8,17 +9,61 @@ next report by themselves.
 
 from __future__ import annotations
 
+import re
 import tomllib
+from dataclasses import dataclass, field
 
 import numpy as np
 
+from armlab.errors import ArmlabError
 from armlab.model.robot import Robot
+from armlab.scenarios import list_scenarios, load_scenario
 from armlab.viz.drawing import Plane
-from armlab.viz.report import Experiment, assignment_number
+from armlab.viz.metrics import Metric
 
 COMPANIONS = {"prp": ("link1",)}
 QUICK_T_FINAL = 2.0  # [s] length of every run in --quick mode
 HIDDEN_KEYS = {"title", "assignment", "description"}
+
+
+class ReportError(ArmlabError, ValueError):
+    """A report that cannot be built (unknown robot, unwritable output)."""
+
+
+@dataclass
+class Experiment:
+    """One scenario run for the report: what it is, how it was set up, what it did."""
+
+    name: str
+    assignment: int
+    title: str
+    description: str
+    parameters: list[tuple[str, str]]
+    robot: Robot | None = None
+    plane: Plane | None = None
+    result: object | None = None
+    error: str = ""
+    seconds: float = 0.0
+    metrics: list[Metric] = field(default_factory=list)
+    figures: list[tuple[str, str, bytes]] = field(default_factory=list)
+    runner: object = None
+    scenario: str | None = None
+    t_final: float | None = None
+    kind: str = ""
+
+    def run(self):
+        """Run the scenario: ``runner()`` returns its SimulationResult."""
+        if self.runner is None:
+            raise ReportError(f"{self.name}: nothing to run")
+        return self.runner()
+
+
+def assignment_number(text: str) -> int | None:
+    """The seed assignment named in ``text`` ("A7", "a07", "assignment 7", "A14b") or None."""
+    match = re.search(r"(?:^|[^a-z0-9])(?:a|assignment\s*)0*(\d{1,2})(?![0-9])", text.lower())
+    if match and 1 <= int(match.group(1)) <= 15:
+        return int(match.group(1))
+    return None
 
 
 def _belongs(plant_name: str, robot_name: str) -> bool:
@@ -66,28 +111,11 @@ def environment_plane(environment) -> Plane | None:
     return Plane(tuple(rest), tuple(R_r @ vectors[:, int(np.argmax(values))]))
 
 
-def _registry():
-    try:
-        import armlab.scenarios as registry
-    except ImportError:
-        return None
-    return registry
-
-
-def registry_names(robot_name: str) -> list[str]:
-    """Names of the registered scenarios that belong to the report of ``robot_name``."""
-    registry = _registry()
-    if registry is None:
-        return []
-    return [s.name for s in registry.list_scenarios() if _belongs(s.plant.name, robot_name)]
-
-
 def experiment_from_scenario(scenario, t_final: float | None = None) -> Experiment:
     """The :class:`Experiment` of a registered scenario (a name or a loaded Scenario), run up to
     ``t_final`` [s] when given (shorter than the file's own t_final), else for its full length."""
-    registry = _registry()
     if isinstance(scenario, str):
-        scenario = registry.load_scenario(scenario)
+        scenario = load_scenario(scenario)
     full = float(scenario.simulation["t_final"])
     short = t_final if t_final is not None and t_final < full else None
 
@@ -100,17 +128,14 @@ def experiment_from_scenario(scenario, t_final: float | None = None) -> Experime
     number = assignment_number(scenario.assignment) or assignment_number(scenario.name) or 0
     return Experiment(name=scenario.name, assignment=number, title=scenario.title,
                       description=scenario.description, parameters=parameters, robot=scenario.plant,
-                      plane=environment_plane(getattr(scenario, "environment", None)), runner=runner,
+                      plane=environment_plane(scenario.environment), runner=runner,
                       scenario=scenario.name, t_final=short, kind=type(scenario.controller).__name__)
 
 
 def discover(robot: Robot, *, quick: bool = False) -> list[Experiment]:
     """Every registered scenario of ``robot`` as an :class:`Experiment` ready to run, by
     assignment; ``quick`` shortens each run to :data:`QUICK_T_FINAL`."""
-    registry = _registry()
-    if registry is None:
-        return []
     experiments = [experiment_from_scenario(scenario, QUICK_T_FINAL if quick else None)
-                   for scenario in registry.list_scenarios() if _belongs(scenario.plant.name, robot.name)]
+                   for scenario in list_scenarios() if _belongs(scenario.plant.name, robot.name)]
     experiments.sort(key=lambda e: (e.assignment, e.name))
     return experiments

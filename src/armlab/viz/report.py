@@ -17,11 +17,9 @@ filled with made-up content.  Images are inlined, so the file can be mailed or o
 from __future__ import annotations
 
 import os
-import re
 import threading
 import time
 import traceback
-from dataclasses import dataclass, field
 from pathlib import Path
 
 import matplotlib
@@ -35,7 +33,14 @@ from armlab.model.robot import Robot  # noqa: E402
 from armlab.robots import load_robot  # noqa: E402
 from armlab.viz import html  # noqa: E402
 from armlab.viz.animation import animate_robot, joint_spans, motion_window  # noqa: E402
-from armlab.viz.drawing import Plane, draw_robot  # noqa: E402
+from armlab.viz.drawing import draw_robot  # noqa: E402
+from armlab.viz.experiments import (  # noqa: E402, F401 — ReportError, assignment_number: public here too
+    Experiment,
+    ReportError,
+    assignment_number,
+    discover,
+    experiment_from_scenario,
+)
 from armlab.viz.metrics import Metric, measure  # noqa: E402
 from armlab.viz.progress import Progress  # noqa: E402
 from armlab.viz.scopes import SCOPE_DPI, scope_layout, scope_png  # noqa: E402
@@ -59,46 +64,6 @@ ASSIGNMENTS = {
 }
 SEED_POSES = {"prp": np.array([0.1, np.pi / 3, 0.1])}  # the seed's A1 pose
 DRAWING_DPI = 130  # the A1 robot drawings (frame labels legible at the page's 400 px)
-
-
-class ReportError(ArmlabError, ValueError):
-    """A report that cannot be built (unknown robot, unwritable output)."""
-
-
-@dataclass
-class Experiment:
-    """One scenario run for the report: what it is, how it was set up, what it did."""
-
-    name: str
-    assignment: int
-    title: str
-    description: str
-    parameters: list[tuple[str, str]]
-    robot: Robot | None = None
-    plane: Plane | None = None
-    result: object | None = None
-    error: str = ""
-    seconds: float = 0.0
-    metrics: list[Metric] = field(default_factory=list)
-    figures: list[tuple[str, str, bytes]] = field(default_factory=list)
-    runner: object = None
-    scenario: str | None = None
-    t_final: float | None = None
-    kind: str = ""
-
-    def run(self):
-        """Run the scenario: ``runner()`` returns its SimulationResult."""
-        if self.runner is None:
-            raise ReportError(f"{self.name}: nothing to run")
-        return self.runner()
-
-
-def assignment_number(text: str) -> int | None:
-    """The seed assignment named in ``text`` ("A7", "a07", "assignment 7", "A14b") or None."""
-    match = re.search(r"(?:^|[^a-z0-9])(?:a|assignment\s*)0*(\d{1,2})(?![0-9])", text.lower())
-    if match and 1 <= int(match.group(1)) <= 15:
-        return int(match.group(1))
-    return None
 
 
 def seed_pose(robot: Robot) -> np.ndarray:
@@ -272,8 +237,6 @@ def _evaluate_scenario(name: str, t_final: float | None) -> Experiment:
     """Worker-process job: build the experiment of a registered scenario and evaluate it
     (once both halves of the shared kernels are compiled, so that no two workers compile
     the same kernel)."""
-    from armlab.viz.experiments import experiment_from_scenario
-
     for event in _PREPARED:
         event.wait(PREPARE_TIMEOUT)
     return evaluate(experiment_from_scenario(name, t_final))
@@ -362,8 +325,6 @@ def build_report(robot: str | Robot = "prp", out_dir: str | Path = "report", *, 
         robot = load_robot(robot)
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
-    from armlab.viz.experiments import discover
-
     planned = list(experiments) if experiments is not None else discover(robot, quick=quick)
     progress = Progress(len(planned) + 7, enabled=show_progress)
 

@@ -1,0 +1,81 @@
+"""The names by which scenario files build armlab's classes (``type = "joint_pd_gravity"``).
+
+Every class a scenario file can build declares its name where the class is defined::
+
+    @scenario_type("joint_pd_gravity")
+    @dataclass(frozen=True, eq=False)
+    class JointPDGravity(Controller):
+        model: Robot
+        reference: JointReference
+        kp: np.ndarray
+        kd: np.ndarray
+        compensation: Literal["online", "desired", "none"] = "online"
+
+and the scenario loader (``armlab.scenarios``) reads each key of the file's table as the
+annotation of the field of that name says (a ``Literal`` is a string among its choices, a
+number may be an expression, a field annotated with a base class such as ``JointReference``
+is a table whose ``type`` names one of its registered subclasses).  A new controller with a
+string option therefore touches only its own file.
+
+Names are looked up among the registered subclasses of the base a field (or the file's
+``[controller]``, ``[environment]``, ``[[disturbance]]``) asks for, so a name must be unique
+only among those: "constant" is both a joint reference and a disturbance.
+
+``poses`` declares a key that the file writes as one pose or an array of poses
+[x, y, z, φ, ϑ, ψ] [m, rad] (Euler angles of the table's ``euler`` convention, default ZYZ)
+and that the class holds as two fields, positions and rotation matrices:
+``poses={"rest_pose": ("rest_position", "rest_rotation")}``.
+
+This module imports nothing of armlab, so every module that defines such a class can import it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, is_dataclass
+
+
+@dataclass(frozen=True)
+class ScenarioType:
+    """A class as scenario files name it."""
+
+    name: str
+    cls: type
+    poses: dict[str, tuple[str, str]] = field(default_factory=dict)
+
+
+_DECLARED: dict[type, ScenarioType] = {}
+
+
+def scenario_type(name: str, *, poses: dict[str, tuple[str, str]] | None = None):
+    """Class decorator: scenario files build the class as ``type = name`` (see the module
+    docstring for ``poses``)."""
+
+    def register(cls: type) -> type:
+        if not is_dataclass(cls):
+            # The loader reads the dataclass fields: the decorator goes above @dataclass.
+            raise TypeError(f"@scenario_type({name!r}): {cls.__qualname__} is not a dataclass "
+                            "(put @scenario_type above @dataclass)")
+        _DECLARED[cls] = ScenarioType(name, cls, dict(poses or {}))
+        return cls
+
+    return register
+
+
+def declared(cls: type) -> ScenarioType | None:
+    """The declaration of ``cls`` itself (None when it was not registered)."""
+    return _DECLARED.get(cls)
+
+
+def scenario_types(base: type) -> dict[str, ScenarioType]:
+    """The registered subclasses of ``base`` (``base`` included) by name, in the order they
+    were declared."""
+    found: dict[str, ScenarioType] = {}
+    for cls, declaration in _DECLARED.items():
+        if not issubclass(cls, base):
+            continue
+        other = found.get(declaration.name)
+        if other is not None:
+            raise TypeError(f"two {base.__name__} classes are registered as {declaration.name!r}: "
+                            f"{other.cls.__qualname__} and {cls.__qualname__}")
+        found[declaration.name] = declaration
+    return found
