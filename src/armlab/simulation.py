@@ -46,7 +46,7 @@ from armlab.disturbances import encode_disturbances
 from armlab.dynamics import packed_copy
 from armlab.errors import ArmlabError
 from armlab.kernels import integrators
-from armlab.kernels.integrators import no_environment_law
+from armlab.kernels.environment import free_space_law
 from armlab.results import SimulationResult
 
 STATUS = {1: "non-finite state", 2: "joint limit exceeded", 3: "runaway kinetic energy",
@@ -145,7 +145,7 @@ class _Setup:
         self.disturbance = disturbance
         if environment is not None and not isinstance(environment, Environment):
             raise SimulationError(f"environment: {type(environment).__name__} is not an armlab Environment")
-        self.env_law = type(environment).law if environment is not None else no_environment_law
+        self.env_law = type(environment).law if environment is not None else free_space_law
         self.eparams = environment.params() if environment is not None else (np.zeros(1),)
         self.signals: tuple[Signal, ...] = tuple(controller.signals())
         self.sig_width = sum(s.width for s in self.signals)

@@ -66,6 +66,7 @@ import numpy as np
 from numba import njit, typeof, types
 
 from armlab.disturbances import disturbance_into
+from armlab.kernels.environment import free_space_law
 from armlab.kernels.indirect import (
     borrowed,
     call_float,
@@ -202,7 +203,7 @@ def compile_shared() -> None:
     kernel_address(disturbance_into, (_VEC, _F64, _VEC, _VEC, _VEC), types.none)
     free = typeof((np.zeros(1),))  # the parameters of a run without environment
     kernel_address(env_trampoline, (types.CPointer(free), _I64, _F64, _MAT, _VEC, _VEC, _VEC), types.none)
-    kernel_address(no_environment_law, (_F64, _MAT, _VEC, _VEC, free, _VEC), types.none)
+    kernel_address(free_space_law, (_F64, _MAT, _VEC, _VEC, free, _VEC), types.none)
 
 
 def _addresses(law, env_law, cparams, eparams, forward_dynamics, kinetic_energy, entry):
@@ -527,10 +528,3 @@ def log_rows(core, fn, ts, xs, pp, cparams, eparams, dist, has_env, call_law, li
     call_none(core, borrowed((fn, ts, xs, pp, stack_address(borrowed(cparams)),
                               stack_address(borrowed(eparams)), dist, has_env, call_law, lim, work,
                               layout, out, start)))
-
-
-@njit(cache=True)
-def no_environment_law(t, R_0e, p_0e, v_e, params, h_e_out):
-    """Free space for runs without an environment: h_e = 0 (the loop skips its kinematics)."""
-    for i in range(6):
-        h_e_out[i] = 0.0
