@@ -74,9 +74,9 @@ class SlotineLi1DoFParams(NamedTuple):
 def slotine_li_1dof_law(t, q, qd, z, h_e, params, tau_out, zdot_out, signals_out):
     """(C4), (C5) with the seed's regressor (C7); z = π̂ = [Î, F̂, Ĝ]; ``params`` a
     :class:`SlotineLi1DoFParams`."""
-    kd, lam, gamma, Y = params.kd, params.lam, params.gamma, params.Y
+    ref, kd, lam, gamma, Y = params.reference, params.kd, params.lam, params.gamma, params.Y
     q_des, qd_des, qdd_des = params.q_des, params.qd_des, params.qdd_des
-    reference_into(params.reference, t, q_des, qd_des, qdd_des)
+    reference_into(ref, t, q_des, qd_des, qdd_des)
     q_err = q_des[0] - q[0]
     qd_err = qd_des[0] - qd[0]
     qd_r = qd_des[0] + lam[0] * q_err
@@ -276,11 +276,11 @@ def slotine_li_law(t, q, qd, z, h_e, params, tau_out, zdot_out, signals_out):
     """(C4), (C5) with the numeric regressor (C8); z = π̂ (11n,); ``params`` a
     :class:`SlotineLiParams`."""
     ms, ws, work, Y = params.scratch_model, params.workspace, params.work, params.Y
-    kd, lam, gamma = params.kd, params.lam, params.gamma
+    ref, kd, lam, gamma = params.reference, params.kd, params.lam, params.gamma
     q_des, qd_des, qdd_des = params.q_des, params.qd_des, params.qdd_des
     qd_r, qdd_r, sigma = params.qd_r, params.qdd_r, params.sigma
     n = q.shape[0]
-    reference_into(params.reference, t, q_des, qd_des, qdd_des)
+    reference_into(ref, t, q_des, qd_des, qdd_des)
     for i in range(n):
         qd_r[i] = qd_des[i]
         qdd_r[i] = qdd_des[i]

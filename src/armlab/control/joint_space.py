@@ -78,11 +78,11 @@ class JointPDGravityParams(NamedTuple):
 def joint_pd_gravity_law(t, q, qd, z, h_e, params, tau_out, zdot_out, signals_out):
     """(C1): τ = ĝ(q_g) + K_P (q_des − q) − K_D q̇, q_g per compensation mode;
     ``params`` a :class:`JointPDGravityParams`."""
-    m, ws, kp, kd = params.model, params.workspace, params.kp, params.kd
+    m, ws, ref, kp, kd = params.model, params.workspace, params.reference, params.kp, params.kd
     q_des, qd_des, qdd_des, g = params.q_des, params.qd_des, params.qdd_des, params.gravity
     mode = params.compensation
     n = q.shape[0]
-    reference_into(params.reference, t, q_des, qd_des, qdd_des)
+    reference_into(ref, t, q_des, qd_des, qdd_des)
     if mode[0] == 0:
         gravity_into(m, ws, q, g)
     elif mode[0] == 1:
@@ -172,10 +172,11 @@ class JointInverseDynamicsParams(NamedTuple):
 def joint_inverse_dynamics_law(t, q, qd, z, h_e, params, tau_out, zdot_out, signals_out):
     """(C2): τ = B̂(q) y + n̂(q, q̇), y = q̈_des + K_D (q̇_des − q̇) + K_P (q_des − q);
     ``params`` a :class:`JointInverseDynamicsParams`."""
+    inverse_dynamics, model, ref = params.inverse_dynamics, params.packed_model, params.reference
     kp, kd, diagonal, y = params.kp, params.kd, params.diagonal, params.y
     q_des, qd_des, qdd_des = params.q_des, params.qd_des, params.qdd_des
     n = q.shape[0]
-    reference_into(params.reference, t, q_des, qd_des, qdd_des)
+    reference_into(ref, t, q_des, qd_des, qdd_des)
     for i in range(n):
         acc = qdd_des[i]
         if diagonal[0]:
@@ -187,7 +188,7 @@ def joint_inverse_dynamics_law(t, q, qd, z, h_e, params, tau_out, zdot_out, sign
         y[i] = acc
     # B̂ y + n̂ is exactly the model's inverse dynamics at q̈ = y (no B): the model's closed
     # form or its RNEA, whichever ``dynamics`` chose (armlab.closed_form).
-    call_none(params.inverse_dynamics, (params.packed_model, q, qd, y, tau_out))
+    call_none(inverse_dynamics, (model, q, qd, y, tau_out))
     for i in range(n):
         signals_out[i] = q_des[i]
         signals_out[n + i] = q_des[i] - q[i]
