@@ -106,7 +106,7 @@ def test_computed_torque_with_diagonal_gains_skips_only_zero_terms():
                                                               [2.0, 1.0, 3.0]), [3.0, 5.0, 7.0])
     params = controller.params()
     assert params[5][0] == 1                                     # from_poles: diagonal gains
-    general = params[:5] + (np.array([0]),) + params[6:]
+    general = params._replace(diagonal=np.array([0]))
     rng = np.random.default_rng(3)
     for _ in range(20):
         q, qd = rng.normal(size=(2, 3))

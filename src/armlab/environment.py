@@ -24,7 +24,14 @@ import numpy as np
 
 from armlab.control.base import Environment
 from armlab.errors import ArmlabError
-from armlab.kernels.environment import free_space_law, spring_law, wall_law
+from armlab.kernels.environment import (
+    FreeSpaceParams,
+    PlanarWallParams,
+    SpringParams,
+    free_space_law,
+    spring_law,
+    wall_law,
+)
 from armlab.registry import scenario_type
 
 
@@ -90,8 +97,8 @@ class FreeSpace(_Evaluate, Environment):
 
     law = free_space_law
 
-    def params(self) -> tuple:
-        return (np.zeros(1),)
+    def params(self) -> FreeSpaceParams:
+        return FreeSpaceParams()
 
 
 @scenario_type("spring", poses={"rest_pose": ("rest_position", "rest_rotation")})
@@ -114,10 +121,11 @@ class Spring(_Evaluate, Environment):
                 rest_position=_vector(self.rest_position, "rest_position"),
                 rest_rotation=_rotation(self.rest_rotation, "rest_rotation"))
 
-    def params(self) -> tuple:
-        return (np.ascontiguousarray(self.rest_rotation), self.rest_position.copy(),
-                np.ascontiguousarray(self.stiffness), np.zeros(12), np.zeros((3, 3)),
-                np.zeros((3, 3)))
+    def params(self) -> SpringParams:
+        return SpringParams(rest_rotation=np.ascontiguousarray(self.rest_rotation),
+                            rest_position=self.rest_position.copy(),
+                            stiffness=np.ascontiguousarray(self.stiffness), work=np.zeros(12),
+                            R_rel=np.zeros((3, 3)), T_inv=np.zeros((3, 3)))
 
     def describe(self) -> dict:
         return {"type": "Spring", "stiffness": self.stiffness.tolist(),
@@ -152,8 +160,9 @@ class PlanarWall(_Evaluate, Environment):
         object.__setattr__(self, "stiffness", float(self.stiffness))
         object.__setattr__(self, "damping", float(self.damping))
 
-    def params(self) -> tuple:
-        return (self.point.copy(), self.normal.copy(), np.array([self.stiffness, self.damping]))
+    def params(self) -> PlanarWallParams:
+        return PlanarWallParams(point=self.point.copy(), normal=self.normal.copy(),
+                                stiffness=self.stiffness, damping=self.damping)
 
     def describe(self) -> dict:
         return {"type": "PlanarWall", "point": self.point.tolist(), "normal": self.normal.tolist(),

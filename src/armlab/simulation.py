@@ -46,7 +46,7 @@ from armlab.disturbances import encode_disturbances
 from armlab.dynamics import packed_copy
 from armlab.errors import ArmlabError
 from armlab.kernels import integrators
-from armlab.kernels.environment import free_space_law
+from armlab.kernels.environment import FreeSpaceParams, free_space_law
 from armlab.results import SimulationResult
 
 STATUS = {1: "non-finite state", 2: "joint limit exceeded", 3: "runaway kinetic energy",
@@ -146,7 +146,7 @@ class _Setup:
         if environment is not None and not isinstance(environment, Environment):
             raise SimulationError(f"environment: {type(environment).__name__} is not an armlab Environment")
         self.env_law = type(environment).law if environment is not None else free_space_law
-        self.eparams = environment.params() if environment is not None else (np.zeros(1),)
+        self.eparams = environment.params() if environment is not None else FreeSpaceParams()
         self.signals: tuple[Signal, ...] = tuple(controller.signals())
         self.sig_width = sum(s.width for s in self.signals)
         if choice_problem(dynamics):
@@ -341,9 +341,10 @@ def _run_rk4(setup, cparams, meta, on_divergence):
 
 def _rk4(setup, cparams, fset, iset, out):
     fn, pp, work = setup.workspace(cparams)
-    return integrators.rk4_run(integrators.core_address("rk4"), fn, pp, cparams, setup.eparams,
-                               setup.dist, setup.x0.copy(), work, fset, iset, setup.lim, setup.q_lo,
-                               setup.q_hi, out)
+    cplain, eplain = integrators.plain_params(cparams), integrators.plain_params(setup.eparams)
+    return integrators.rk4_run(integrators.core_address("rk4"), fn, pp, cplain, eplain, setup.dist,
+                               setup.x0.copy(), work, fset, iset, setup.lim, setup.q_lo, setup.q_hi,
+                               out)
 
 
 def _run_adaptive(setup, cparams, meta, on_divergence, rtol, atol, integrator):
@@ -351,6 +352,7 @@ def _run_adaptive(setup, cparams, meta, on_divergence, rtol, atol, integrator):
 
     n, width = setup.n, setup.sig_width
     fn, pp, work = setup.workspace(cparams)
+    cplain, eplain = integrators.plain_params(cparams), integrators.plain_params(setup.eparams)
     rhs_core, log_core = integrators.core_address("rhs"), integrators.core_address("log")
     has_env = setup.environment is not None
     xdot = np.zeros_like(setup.x0)
@@ -362,7 +364,7 @@ def _run_adaptive(setup, cparams, meta, on_divergence, rtol, atol, integrator):
         # SciPy may hand a strided column (Radau's, BDF's numerical Jacobian); the loop
         # reads its state as contiguous float64.
         x = np.ascontiguousarray(x, dtype=float)
-        integrators.rhs(rhs_core, fn, float(t), x, pp, cparams, setup.eparams, setup.dist, has_env,
+        integrators.rhs(rhs_core, fn, float(t), x, pp, cplain, eplain, setup.dist, has_env,
                         call_law, z_rate, setup.lim, work, width, xdot)
         return xdot.copy()
 
@@ -377,7 +379,7 @@ def _run_adaptive(setup, cparams, meta, on_divergence, rtol, atol, integrator):
         if setup.sampled:
             if first > 0:
                 x[2 * n:] += setup.every * setup.dt * zdot_held
-            integrators.rhs(rhs_core, fn, grid[first], x, pp, cparams, setup.eparams, setup.dist,
+            integrators.rhs(rhs_core, fn, grid[first], x, pp, cplain, eplain, setup.dist,
                             has_env, True, 0.0, setup.lim, work, width, xdot)
             zdot_held = work[integrators.zdot_slice(n, setup.k)].copy()
         solution = solve_ivp(rhs, (grid[first], grid[last]), x, method=integrator, rtol=rtol,
@@ -390,7 +392,7 @@ def _run_adaptive(setup, cparams, meta, on_divergence, rtol, atol, integrator):
         if bad >= 0:
             status, step, joint, keep = code, first + bad, where, bad
         integrators.log_rows(log_core, fn, grid[first:first + keep],
-                             np.ascontiguousarray(xs[:keep]), pp, cparams, setup.eparams,
+                             np.ascontiguousarray(xs[:keep]), pp, cplain, eplain,
                              setup.dist, has_env, not setup.sampled, setup.lim, work, setup.layout,
                              out, rows)
         rows += keep

@@ -36,13 +36,14 @@ Two regressors:
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit
 
 from armlab.control.base import Controller, ProtocolError, Signal
 from armlab.control.joint_space import _check_reference, gain_matrix
-from armlab.kernels.dynamics import make_workspace, rnea_into
+from armlab.kernels.dynamics import DynamicsWorkspace, make_workspace, rnea_into
 from armlab.kernels.indirect import borrowed
 from armlab.kernels.integrators import law_entry, law_views
 from armlab.model.robot import Robot, RobotArrays
@@ -57,10 +58,25 @@ kernel = njit(cache=True)
 law_kernel = njit(cache=True, inline="always")
 
 
+class SlotineLi1DoFParams(NamedTuple):
+    """The ``params`` of :func:`slotine_li_1dof_law` (C4), (C5), (C7); the last four scratch."""
+
+    reference: np.ndarray           # a writeable copy of ``JointReference.data`` (one joint)
+    kd: np.ndarray                  # (1,) K_D [N·m·s/rad]
+    lam: np.ndarray                 # (1,) Λ [1/s]
+    gamma: np.ndarray               # (3, 3) Γ of dπ̂/dt = Γ Yᵀσ [π_i π_j / J]
+    q_des: np.ndarray               # (1,) q_des(t) [rad]
+    qd_des: np.ndarray              # (1,) q̇_des(t) [rad/s]
+    qdd_des: np.ndarray             # (1,) q̈_des(t) [rad/s²]
+    Y: np.ndarray                   # (3,) the regressor [q̈_r, q̇_r, sin q] [rad/s², rad/s, 1]
+
+
 @law_kernel
 def slotine_li_1dof_law(t, q, qd, z, h_e, params, tau_out, zdot_out, signals_out):
-    """(C4), (C5) with the seed's regressor (C7); z = π̂ = [Î, F̂, Ĝ]."""
-    ref, kd, lam, gamma, q_des, qd_des, qdd_des, Y = params
+    """(C4), (C5) with the seed's regressor (C7); z = π̂ = [Î, F̂, Ĝ]; ``params`` a
+    :class:`SlotineLi1DoFParams`."""
+    ref, kd, lam, gamma, Y = params.reference, params.kd, params.lam, params.gamma, params.Y
+    q_des, qd_des, qdd_des = params.q_des, params.qd_des, params.qdd_des
     reference_into(ref, t, q_des, qd_des, qdd_des)
     q_err = q_des[0] - q[0]
     qd_err = qd_des[0] - qd[0]
@@ -122,8 +138,10 @@ class SlotineLi1DoF(Controller):
             object.__setattr__(self, name, float(value.reshape(-1)[0]))
 
     def params(self):
-        return (np.array(self.reference.data), np.array([float(self.kd)]), np.array([float(self.lam)]),
-                self.gamma, np.zeros(1), np.zeros(1), np.zeros(1), np.zeros(3))
+        return SlotineLi1DoFParams(
+            reference=np.array(self.reference.data), kd=np.array([float(self.kd)]),
+            lam=np.array([float(self.lam)]), gamma=self.gamma,
+            q_des=np.zeros(1), qd_des=np.zeros(1), qdd_des=np.zeros(1), Y=np.zeros(3))
 
     def initial_state(self):
         return self.initial_estimate.copy()
@@ -235,10 +253,34 @@ def regressor_into(ms, ws, q, qd, qd_r, qdd_r, work, Y_out):
                 ms.inertia[i, r, k] = 0.0
 
 
+class SlotineLiParams(NamedTuple):
+    """The ``params`` of :func:`slotine_li_law` (C4), (C5), (C8) for n joints; from ``q_des``
+    on, scratch."""
+
+    scratch_model: RobotArrays      # model copy without friction or rotors; inertials overwritten
+    workspace: DynamicsWorkspace    # scratch of ``rnea_into``
+    reference: np.ndarray           # a writeable copy of ``JointReference.data``
+    kd: np.ndarray                  # (n, n) K_D [N·s/m | N·m·s/rad]
+    lam: np.ndarray                 # (n, n) Λ [1/s]
+    gamma: np.ndarray               # (11n, 11n) Γ of dπ̂/dt = Γ Yᵀσ [π_i π_j / J]
+    q_des: np.ndarray               # (n,) q_des(t) [m | rad]
+    qd_des: np.ndarray              # (n,) q̇_des(t) [m/s | rad/s]
+    qdd_des: np.ndarray             # (n,) q̈_des(t) [m/s² | rad/s²]
+    qd_r: np.ndarray                # (n,) q̇_r [m/s | rad/s]
+    qdd_r: np.ndarray               # (n,) q̈_r [m/s² | rad/s²]
+    sigma: np.ndarray               # (n,) σ = q̇_r − q̇ [m/s | rad/s]
+    work: np.ndarray                # (8, max(n, 10)) scratch rows of ``regressor_into``
+    Y: np.ndarray                   # (n, 11n) the regressor Y(q, q̇, q̇_r, q̈_r)
+
+
 @kernel
 def slotine_li_law(t, q, qd, z, h_e, params, tau_out, zdot_out, signals_out):
-    """(C4), (C5) with the numeric regressor (C8); z = π̂ (11n,)."""
-    ms, ws, ref, kd, lam, gamma, q_des, qd_des, qdd_des, qd_r, qdd_r, sigma, work, Y = params
+    """(C4), (C5) with the numeric regressor (C8); z = π̂ (11n,); ``params`` a
+    :class:`SlotineLiParams`."""
+    ms, ws, work, Y = params.scratch_model, params.workspace, params.work, params.Y
+    ref, kd, lam, gamma = params.reference, params.kd, params.lam, params.gamma
+    q_des, qd_des, qdd_des = params.q_des, params.qd_des, params.qdd_des
+    qd_r, qdd_r, sigma = params.qd_r, params.qdd_r, params.sigma
     n = q.shape[0]
     reference_into(ref, t, q_des, qd_des, qdd_des)
     for i in range(n):
@@ -316,9 +358,12 @@ class SlotineLi(Controller):
         zero = np.zeros(n)
         scratch = RobotArrays(*[np.array(a, copy=True) for a in base])._replace(
             viscous=zero.copy(), coulomb=zero.copy(), rotor_inertia=zero.copy())
-        return (scratch, make_workspace(n), np.array(self.reference.data), self.kd, self.lam, self.gamma,
-                np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n),
-                np.zeros((8, max(n, 10))), np.zeros((n, 11 * n)))
+        return SlotineLiParams(
+            scratch_model=scratch, workspace=make_workspace(n), reference=np.array(self.reference.data),
+            kd=self.kd, lam=self.lam, gamma=self.gamma,
+            q_des=np.zeros(n), qd_des=np.zeros(n), qdd_des=np.zeros(n),
+            qd_r=np.zeros(n), qdd_r=np.zeros(n), sigma=np.zeros(n),
+            work=np.zeros((8, max(n, 10))), Y=np.zeros((n, 11 * n)))
 
     def initial_state(self):
         return standard_parameters(self.model)

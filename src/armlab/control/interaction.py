@@ -21,7 +21,7 @@ with C_F = K_F + K_I/s; the integral ∫(f_d − f_e) dt is the controller state
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Literal
+from typing import Literal, NamedTuple
 
 import numpy as np
 from numba import njit
@@ -30,6 +30,7 @@ from armlab.control.base import Controller, Signal
 from armlab.control.task_space import (
     COMPONENT_LABELS,
     ControllerSpecError,
+    OperationalInverseDynamicsParams,
     OperationalPD,
     TaskController,
     gain_matrix,
@@ -38,9 +39,10 @@ from armlab.control.task_space import (
     log_pose_signals,
     solve_and_apply,
 )
-from armlab.kernels.dynamics import make_workspace
+from armlab.kernels.dynamics import DynamicsWorkspace, make_workspace
 from armlab.kernels.linalg import task_solve_into
 from armlab.kernels.task_space import (
+    TaskWorkspace,
     compliant_frame_into,
     frame_from_vector,
     log_task_signals,
@@ -50,7 +52,7 @@ from armlab.kernels.task_space import (
     task_error_into,
     task_workspace,
 )
-from armlab.model.robot import Robot
+from armlab.model.robot import Robot, RobotArrays
 from armlab.registry import scenario_type
 from armlab.task_references import ForceReference, PoseReference, force_reference_into, pose_reference_into
 
@@ -95,9 +97,33 @@ class ImpedanceControl(TaskController):
     needs_inverse = True
     law = inverse_dynamics_law
 
-    def params(self) -> tuple:
+    def params(self) -> OperationalInverseDynamicsParams:
         mass = gain_matrix(self.mass, self.task, "mass", positive_definite=True)
-        return self._common() + (np.linalg.inv(mass), np.array([1.0, float(self.damping)]))
+        return OperationalInverseDynamicsParams(**self._common(), mass_inverse=np.linalg.inv(mass),
+                                                with_force=1.0, damping=float(self.damping))
+
+
+class AdmittanceParams(NamedTuple):
+    """The ``params`` of :func:`admittance_law` (C13) for n joints and k task components;
+    ``frame_t``, ``h_d`` and ``zdd`` are scratch."""
+
+    model: RobotArrays              # the controller's model
+    workspace: DynamicsWorkspace    # scratch of the dynamics kernels
+    task_workspace: TaskWorkspace   # scratch of the task-space kernels (also what is logged)
+    reference: np.ndarray           # a writeable copy of ``PoseReference.data`` (Σ_d)
+    task: np.ndarray                # (k,) int64, the controlled components of x̃_t (0–5)
+    kp: np.ndarray                  # (k, k) K_P of the inner motion loop [1/s²]
+    kd: np.ndarray                  # (k, k) K_D of the inner motion loop [1/s]
+    mode: int                       # RELATIVE (admittance control works in Σ_d)
+    convention: int                 # Euler code (unused by RELATIVE errors, which are XYZ)
+    angle_reference: np.ndarray     # (3,) [rad] (unused by RELATIVE errors)
+    mass_t_inverse: np.ndarray      # (6, 6) M_t⁻¹ [1/kg, 1/(kg·m²)] in Σ_d's axes
+    kd_t: np.ndarray                # (6, 6) K_Dt [N·s/m, N·m·s/rad]
+    kp_t: np.ndarray                # (6, 6) K_Pt [N/m, N·m/rad]
+    frame_t: np.ndarray             # (24,) the compliant frame Σ_t(t), as ``PoseReference`` frames
+    h_d: np.ndarray                 # (6,) h_e^d, the measured wrench in Σ_d's axes [N, N·m]
+    zdd: np.ndarray                 # (6,) z̃̈ [m/s², rad/s²]
+    damping: float                  # λ of the damped least squares (T5), 0: exact inverse
 
 
 @njit(cache=True)
@@ -107,10 +133,14 @@ def admittance_law(t, q, qd, z, h_e, params, tau_out, zdot_out, signals_out):
         M_t z̃̈ + K_Dt z̃̇ + K_Pt z̃ = h_e^d,   z̃ = −[o^d_{d,t}; φ_{d,t}]   (state z = [z̃; z̃̇])
         τ = B y + n + Jᵀ h_e,   J_{A_t,s} y = K_D x̃̇_{t,s} + K_P x̃_{t,s} + c_{t,s}
 
-    x̃_t the pose error relative to the compliant frame Σ_t (T1–T4 with Σ_a = Σ_t, T9).
+    x̃_t the pose error relative to the compliant frame Σ_t (T1–T4 with Σ_a = Σ_t, T9);
+    ``params`` an :class:`AdmittanceParams`.
     """
-    (m, dws, ws, ref, task, kp, kd, mode, convention, angles,
-     mt_inv, kdt, kpt, frame_t, h_d, zdd, damping) = params
+    m, dws, ws = params.model, params.workspace, params.task_workspace
+    task, kp, kd = params.task, params.kp, params.kd
+    ref, mode, convention, angles = params.reference, params.mode, params.convention, params.angle_reference
+    mt_inv, kdt, kpt, damping = params.mass_t_inverse, params.kd_t, params.kp_t, params.damping
+    frame_t, h_d, zdd = params.frame_t, params.h_d, params.zdd
     k = task.shape[0]
     pose_reference_into(ref, t, ws.frame)
     R_d = ws.mat[0]
@@ -141,7 +171,7 @@ def admittance_law(t, q, qd, z, h_e, params, tau_out, zdot_out, signals_out):
         for c in range(k):
             acc += kd[r, c] * ws.x_err_dot[task[c]] + kp[r, c] * ws.x_err[task[c]]
         ws.rhs[r] = acc
-    task_solve_into(ws.A, ws.rhs, damping[0], ws.G, ws.y)
+    task_solve_into(ws.A, ws.rhs, damping, ws.G, ws.y)
     solve_and_apply(m, dws, ws, q, qd, h_e, 1.0, tau_out)
     start = log_task_signals(ws, task, signals_out, log_pose_signals(ws, signals_out))
     for i in range(3):
@@ -169,13 +199,14 @@ class AdmittanceControl(TaskController):
     needs_inverse = True
     law = admittance_law
 
-    def params(self) -> tuple:
+    def params(self) -> AdmittanceParams:
         if self.frame != "desired":
             raise ControllerSpecError("frame: admittance control works in Σ_d ('desired')")
         mass_t = gain_matrix(self.mass_t, ALL6, "mass_t", positive_definite=True)
-        return self._common() + (np.linalg.inv(mass_t), gain_matrix(self.kd_t, ALL6, "kd_t"),
-                                 gain_matrix(self.kp_t, ALL6, "kp_t"), np.zeros(24), np.zeros(6),
-                                 np.zeros(6), np.array([float(self.damping)]))
+        return AdmittanceParams(**self._common(), mass_t_inverse=np.linalg.inv(mass_t),
+                                kd_t=gain_matrix(self.kd_t, ALL6, "kd_t"),
+                                kp_t=gain_matrix(self.kp_t, ALL6, "kp_t"), frame_t=np.zeros(24),
+                                h_d=np.zeros(6), zdd=np.zeros(6), damping=float(self.damping))
 
     def initial_state(self) -> np.ndarray:
         return np.zeros(12)
@@ -190,6 +221,27 @@ class AdmittanceControl(TaskController):
         return self._task_signals() + (Signal("p_t", ("x", "y", "z"), ("m",) * 3),)
 
 
+class ForceMotionParams(NamedTuple):
+    """The ``params`` of :func:`force_motion_law` (C14, C15) for n joints; the last two fields
+    are scratch."""
+
+    model: RobotArrays              # the controller's model
+    workspace: DynamicsWorkspace    # scratch of the dynamics kernels
+    task_workspace: TaskWorkspace   # scratch of the task-space kernels (k = 3, also what is logged)
+    reference: np.ndarray           # a writeable copy of ``PoseReference.data``, x_d(t)
+    task: np.ndarray                # (3,) int64 [0, 1, 2]: the position components
+    kp: np.ndarray                  # (3, 3) K_P [1/s²]
+    kd: np.ndarray                  # (3, 3) K_D [1/s]
+    mass_inverse: np.ndarray        # (3, 3) M_d⁻¹ [1/kg]
+    force_reference: np.ndarray     # a writeable copy of ``ForceReference.data``, f_d(t)
+    kf: np.ndarray                  # (3, 3) K_F [m/N]
+    ki: np.ndarray                  # (3, 3) K_I [m/(N·s)]
+    position_feedback: float        # w: 1.0 inner position loop, 0.0 inner velocity loop
+    damping: float                  # λ of the damped least squares (T5), 0: exact inverse
+    f_d: np.ndarray                 # (3,) f_d(t) [N]
+    x_f: np.ndarray                 # (3,) x_F [m]
+
+
 @njit(cache=True)
 def force_motion_law(t, q, qd, z, h_e, params, tau_out, zdot_out, signals_out):
     """Force control with inner position / velocity loop and parallel force/position (C14, C15):
@@ -198,11 +250,13 @@ def force_motion_law(t, q, qd, z, h_e, params, tau_out, zdot_out, signals_out):
         J_P y = M_d⁻¹ (K_D x̃̇ + K_P (w x̃ + x_F)) + c,   τ = B y + n + Jᵀ h_e
 
     x̃ = x_d − p_e, x̃̇ = ẋ_d − ṗ_e, c = ẍ_d − J̇_P q̇ (T8); w = 1 (position loop; x_d = 0 for pure
-    force control, the reference for parallel control), w = 0 (velocity loop, x_d = 0).
+    force control, the reference for parallel control), w = 0 (velocity loop, x_d = 0);
+    ``params`` a :class:`ForceMotionParams`.
     """
-    (m, dws, ws, ref, task, kp, kd, md_inv, force_ref, kf, ki, options, f_d, x_f) = params
-    position_feedback = options[0]
-    damping = options[1]
+    m, dws, ws, ref = params.model, params.workspace, params.task_workspace, params.reference
+    task, kp, kd, md_inv = params.task, params.kp, params.kd, params.mass_inverse
+    force_ref, kf, ki, f_d, x_f = params.force_reference, params.kf, params.ki, params.f_d, params.x_f
+    position_feedback, damping = params.position_feedback, params.damping
     force_reference_into(force_ref, t, f_d)
     for i in range(3):
         zdot_out[i] = f_d[i] - h_e[i]
@@ -266,14 +320,17 @@ class _ForceBase(Controller):
             gain_matrix(getattr(self, name), (0, 1, 2), name)
         gain_matrix(self.mass, (0, 1, 2), "mass", positive_definite=True)
 
-    def _params(self, reference: PoseReference, position_feedback: float) -> tuple:
+    def _params(self, reference: PoseReference, position_feedback: float) -> ForceMotionParams:
         task = (0, 1, 2)
         mass = gain_matrix(self.mass, task, "mass", positive_definite=True)
-        return (self.model.arrays, make_workspace(self.model.n), task_workspace(self.model.n, 3),
-                np.array(reference.data), np.array(task, dtype=np.int64), gain_matrix(self.kp, task, "kp"),
-                gain_matrix(self.kd, task, "kd"), np.linalg.inv(mass), np.array(self.force.data),
-                gain_matrix(self.kf, task, "kf"), gain_matrix(self.ki, task, "ki"),
-                np.array([position_feedback, float(self.damping)]), np.zeros(3), np.zeros(3))
+        return ForceMotionParams(
+            model=self.model.arrays, workspace=make_workspace(self.model.n),
+            task_workspace=task_workspace(self.model.n, 3), reference=np.array(reference.data),
+            task=np.array(task, dtype=np.int64), kp=gain_matrix(self.kp, task, "kp"),
+            kd=gain_matrix(self.kd, task, "kd"), mass_inverse=np.linalg.inv(mass),
+            force_reference=np.array(self.force.data), kf=gain_matrix(self.kf, task, "kf"),
+            ki=gain_matrix(self.ki, task, "ki"), position_feedback=position_feedback,
+            damping=float(self.damping), f_d=np.zeros(3), x_f=np.zeros(3))
 
     k = 3
     check = TaskController.check
@@ -345,7 +402,7 @@ class ForceControl(_ForceBase):
     def initial_state(self) -> np.ndarray:
         return self._z0.copy()
 
-    def params(self) -> tuple:
+    def params(self) -> ForceMotionParams:
         return self._params(_ORIGIN, 1.0 if self.inner == "position" else 0.0)
 
 
@@ -369,5 +426,5 @@ class ParallelForcePosition(_ForceBase):
             raise ControllerSpecError("reference: must be a PoseReference")
         self._check()
 
-    def params(self) -> tuple:
+    def params(self) -> ForceMotionParams:
         return self._params(self.reference, 1.0)

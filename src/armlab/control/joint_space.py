@@ -8,7 +8,7 @@ Errors are q_err = q_des − q (the seed's q̃).  Notation: ``docs/notation.md``
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Literal
+from typing import Literal, NamedTuple
 
 import numpy as np
 from numba import njit, types
@@ -16,10 +16,10 @@ from numba import njit, types
 from armlab.closed_form import ClosedFormUnavailable, choice_problem, inverse_dynamics_kernel
 from armlab.control.base import Controller, ProtocolError, Signal
 from armlab.dynamics import packed_copy
-from armlab.kernels.dynamics import gravity_into, make_workspace
+from armlab.kernels.dynamics import DynamicsWorkspace, gravity_into, make_workspace
 from armlab.kernels.indirect import borrowed, call_none, kernel_address
 from armlab.kernels.integrators import law_entry, law_views
-from armlab.model.robot import Robot
+from armlab.model.robot import Robot, RobotArrays
 from armlab.references import JointReference, reference_into
 from armlab.registry import scenario_type
 
@@ -60,10 +60,28 @@ _VEC = types.float64[::1]
 _INVERSE_DYNAMICS_TYPES = (_VEC,) * 5   # one tuple: kernel_address finds it by identity
 
 
+class JointPDGravityParams(NamedTuple):
+    """The ``params`` of :func:`joint_pd_gravity_law` (C1); n joints, the last four scratch."""
+
+    model: RobotArrays              # the controller's model, whose gravity is ĝ
+    workspace: DynamicsWorkspace    # scratch of ``gravity_into``
+    reference: np.ndarray           # a writeable copy of ``JointReference.data``
+    kp: np.ndarray                  # (n, n) K_P [N/m | N·m/rad]
+    kd: np.ndarray                  # (n, n) K_D [N·s/m | N·m·s/rad]
+    compensation: np.ndarray        # (1,) int64, ``COMPENSATION``: 0 ĝ(q), 1 ĝ(q_des), 2 none
+    q_des: np.ndarray               # (n,) q_des(t) [m | rad]
+    qd_des: np.ndarray              # (n,) q̇_des(t) [m/s | rad/s]
+    qdd_des: np.ndarray             # (n,) q̈_des(t) [m/s² | rad/s²]
+    gravity: np.ndarray             # (n,) ĝ(q_g) [N | N·m]
+
+
 @law_kernel
 def joint_pd_gravity_law(t, q, qd, z, h_e, params, tau_out, zdot_out, signals_out):
-    """(C1): τ = ĝ(q_g) + K_P (q_des − q) − K_D q̇, q_g per compensation mode."""
-    m, ws, ref, kp, kd, mode, q_des, qd_des, qdd_des, g = params
+    """(C1): τ = ĝ(q_g) + K_P (q_des − q) − K_D q̇, q_g per compensation mode;
+    ``params`` a :class:`JointPDGravityParams`."""
+    m, ws, ref, kp, kd = params.model, params.workspace, params.reference, params.kp, params.kd
+    q_des, qd_des, qdd_des, g = params.q_des, params.qd_des, params.qdd_des, params.gravity
+    mode = params.compensation
     n = q.shape[0]
     reference_into(ref, t, q_des, qd_des, qdd_des)
     if mode[0] == 0:
@@ -125,19 +143,40 @@ class JointPDGravity(Controller):
 
     def params(self):
         n = self.n
-        return (self.model.arrays, make_workspace(n), np.array(self.reference.data), self.kp, self.kd,
-                np.array([COMPENSATION[self.compensation]], dtype=np.int64),
-                np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n))
+        return JointPDGravityParams(
+            model=self.model.arrays, workspace=make_workspace(n),
+            reference=np.array(self.reference.data), kp=self.kp, kd=self.kd,
+            compensation=np.array([COMPENSATION[self.compensation]], dtype=np.int64),
+            q_des=np.zeros(n), qd_des=np.zeros(n), qdd_des=np.zeros(n), gravity=np.zeros(n))
 
     def signals(self):
         return (Signal.joint("q_des", self.model, "position"), Signal.joint("q_err", self.model, "error"),
                 Signal.joint("g_comp", self.model, "effort"))
 
 
+class JointInverseDynamicsParams(NamedTuple):
+    """The ``params`` of :func:`joint_inverse_dynamics_law` (C2); n joints, the last four
+    scratch."""
+
+    inverse_dynamics: int           # address of the model's inverse dynamics (``inverse_dynamics_kernel``)
+    packed_model: np.ndarray        # the model packed (``armlab.kernels.plant``); own copy: holds scratch
+    reference: np.ndarray           # a writeable copy of ``JointReference.data``
+    kp: np.ndarray                  # (n, n) K_P [1/s²]
+    kd: np.ndarray                  # (n, n) K_D [1/s]
+    diagonal: np.ndarray            # (1,) int64: 1 when K_P and K_D are diagonal (the sums skip zeros)
+    q_des: np.ndarray               # (n,) q_des(t) [m | rad]
+    qd_des: np.ndarray              # (n,) q̇_des(t) [m/s | rad/s]
+    qdd_des: np.ndarray             # (n,) q̈_des(t) [m/s² | rad/s²]
+    y: np.ndarray                   # (n,) outer-loop acceleration y [m/s² | rad/s²]
+
+
 @law_kernel
 def joint_inverse_dynamics_law(t, q, qd, z, h_e, params, tau_out, zdot_out, signals_out):
-    """(C2): τ = B̂(q) y + n̂(q, q̇), y = q̈_des + K_D (q̇_des − q̇) + K_P (q_des − q)."""
-    inverse_dynamics, model, ref, kp, kd, diagonal, q_des, qd_des, qdd_des, y = params
+    """(C2): τ = B̂(q) y + n̂(q, q̇), y = q̈_des + K_D (q̇_des − q̇) + K_P (q_des − q);
+    ``params`` a :class:`JointInverseDynamicsParams`."""
+    inverse_dynamics, model, ref = params.inverse_dynamics, params.packed_model, params.reference
+    kp, kd, diagonal, y = params.kp, params.kd, params.diagonal, params.y
+    q_des, qd_des, qdd_des = params.q_des, params.qd_des, params.qdd_des
     n = q.shape[0]
     reference_into(ref, t, q_des, qd_des, qdd_des)
     for i in range(n):
@@ -222,9 +261,11 @@ class JointInverseDynamics(Controller):
             raise ProtocolError(f"dynamics: {error}") from None
         diagonal = not (np.any(self.kp - np.diag(np.diag(self.kp)))
                         or np.any(self.kd - np.diag(np.diag(self.kd))))
-        return (kernel_address(kernel, _INVERSE_DYNAMICS_TYPES, types.none), packed_copy(self.model),
-                np.array(self.reference.data), self.kp, self.kd, np.array([diagonal], dtype=np.int64),
-                np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n))
+        return JointInverseDynamicsParams(
+            inverse_dynamics=kernel_address(kernel, _INVERSE_DYNAMICS_TYPES, types.none),
+            packed_model=packed_copy(self.model), reference=np.array(self.reference.data),
+            kp=self.kp, kd=self.kd, diagonal=np.array([diagonal], dtype=np.int64),
+            q_des=np.zeros(n), qd_des=np.zeros(n), qdd_des=np.zeros(n), y=np.zeros(n))
 
     def signals(self):
         return (Signal.joint("q_des", self.model, "position"), Signal.joint("q_err", self.model, "error"),

@@ -21,18 +21,25 @@ from __future__ import annotations
 
 import warnings
 from dataclasses import dataclass, field
-from typing import Literal
+from typing import Literal, NamedTuple
 
 import numpy as np
 from numba import njit
 
 from armlab.control.base import Controller, Signal
 from armlab.errors import ArmlabError
-from armlab.kernels.dynamics import bias_into, gravity_into, make_workspace, mass_matrix_into
+from armlab.kernels.dynamics import (
+    DynamicsWorkspace,
+    bias_into,
+    gravity_into,
+    make_workspace,
+    mass_matrix_into,
+)
 from armlab.kernels.linalg import task_solve_into
 from armlab.kernels.task_space import (
     ABSOLUTE,
     RELATIVE,
+    TaskWorkspace,
     log_task_signals,
     measure_into,
     select_rows_into,
@@ -40,7 +47,7 @@ from armlab.kernels.task_space import (
     task_workspace,
     wrench_in_task_into,
 )
-from armlab.model.robot import Robot
+from armlab.model.robot import Robot, RobotArrays
 from armlab.registry import scenario_type
 from armlab.spatial import euler_code, euler_from_matrix
 from armlab.task_references import PoseReference, pose_reference_into
@@ -134,11 +141,13 @@ class TaskController(Controller):
     def k(self) -> int:
         return len(self.task)
 
-    def _common(self):
+    def _common(self) -> dict:
+        """The fields every task-space law's parameters begin with, as keyword arguments."""
         d = self._derived
-        return (self.model.arrays, make_workspace(self.model.n), task_workspace(self.model.n, self.k),
-                np.array(self.reference.data), d["task"], d["kp"], d["kd"], d["mode"],
-                d["convention"], d["angles"].copy())
+        return dict(model=self.model.arrays, workspace=make_workspace(self.model.n),
+                    task_workspace=task_workspace(self.model.n, self.k),
+                    reference=np.array(self.reference.data), task=d["task"], kp=d["kp"], kd=d["kd"],
+                    mode=d["mode"], convention=d["convention"], angle_reference=d["angles"].copy())
 
     def _task_signals(self) -> tuple[Signal, ...]:
         angle_unit = "rad"
@@ -199,10 +208,28 @@ def log_pose_signals(ws, signals_out):
     return 18
 
 
+class OperationalPDParams(NamedTuple):
+    """The ``params`` of :func:`operational_pd_law` (C9) for n joints and k task components."""
+
+    model: RobotArrays              # the controller's model
+    workspace: DynamicsWorkspace    # scratch of the dynamics kernels
+    task_workspace: TaskWorkspace   # scratch of the task-space kernels (also what is logged)
+    reference: np.ndarray           # a writeable copy of ``PoseReference.data``
+    task: np.ndarray                # (k,) int64, the controlled components of x (0–5)
+    kp: np.ndarray                  # (k, k) K_P [N/m, N·m/rad]
+    kd: np.ndarray                  # (k, k) K_D [N·s/m, N·m·s/rad]
+    mode: int                       # RELATIVE (frame "desired") or ABSOLUTE ("base")
+    convention: int                 # Euler angles of x, ``spatial.euler_code``
+    angle_reference: np.ndarray     # (3,) [rad] φ_d is the Euler triple nearest to it
+
+
 @njit(cache=True)
 def operational_pd_law(t, q, qd, z, h_e, params, tau_out, zdot_out, signals_out):
-    """τ = g(q) + J_sᵀ (K_P x̃_s − K_D J_s q̇)   (C9, Siciliano (8.110); (9.15) in Σ_d)."""
-    m, dws, ws, ref, task, kp, kd, mode, convention, angles = params
+    """τ = g(q) + J_sᵀ (K_P x̃_s − K_D J_s q̇)   (C9, Siciliano (8.110); (9.15) in Σ_d);
+    ``params`` an :class:`OperationalPDParams`."""
+    m, dws, ws = params.model, params.workspace, params.task_workspace
+    task, kp, kd = params.task, params.kp, params.kd
+    ref, mode, convention, angles = params.reference, params.mode, params.convention, params.angle_reference
     k = task.shape[0]
     n = q.shape[0]
     pose_reference_into(ref, t, ws.frame)
@@ -228,6 +255,25 @@ def operational_pd_law(t, q, qd, z, h_e, params, tau_out, zdot_out, signals_out)
     log_task_signals(ws, task, signals_out, log_pose_signals(ws, signals_out))
 
 
+class OperationalInverseDynamicsParams(NamedTuple):
+    """The ``params`` of :func:`inverse_dynamics_law` (C10, C12) for n joints and k task
+    components."""
+
+    model: RobotArrays              # the controller's model
+    workspace: DynamicsWorkspace    # scratch of the dynamics kernels
+    task_workspace: TaskWorkspace   # scratch of the task-space kernels (also what is logged)
+    reference: np.ndarray           # a writeable copy of ``PoseReference.data``
+    task: np.ndarray                # (k,) int64, the controlled components of x (0–5)
+    kp: np.ndarray                  # (k, k) K_P [1/s²] (impedance: [N/m, N·m/rad])
+    kd: np.ndarray                  # (k, k) K_D [1/s] (impedance: [N·s/m, N·m·s/rad])
+    mode: int                       # RELATIVE (frame "desired") or ABSOLUTE ("base")
+    convention: int                 # Euler angles of x, ``spatial.euler_code``
+    angle_reference: np.ndarray     # (3,) [rad] φ_d is the Euler triple nearest to it
+    mass_inverse: np.ndarray        # (k, k) M_d⁻¹ [1/kg, 1/(kg·m²)] (I: plain inverse dynamics)
+    with_force: float               # w: 1.0 impedance (h_e fed back, Jᵀh_e compensated), else 0.0
+    damping: float                  # λ of the damped least squares (T5), 0: exact inverse
+
+
 @njit(cache=True)
 def inverse_dynamics_law(t, q, qd, z, h_e, params, tau_out, zdot_out, signals_out):
     """Operational-space inverse dynamics / impedance (C10, C12):
@@ -235,11 +281,14 @@ def inverse_dynamics_law(t, q, qd, z, h_e, params, tau_out, zdot_out, signals_ou
         J_s y = M_d⁻¹ (K_D x̃̇_s + K_P x̃_s − w h_{A,s}) + c_s,    τ = B(q) y + n(q, q̇) + w Jᵀ h_e
 
     with c = ẍ_d − J̇_A q̇ (T6) or its Σ_d form (T4), w = 1 for impedance (measured h_e fed back
-    and compensated), w = 0 for plain inverse dynamics (M_d = I).
+    and compensated), w = 0 for plain inverse dynamics (M_d = I); ``params`` an
+    :class:`OperationalInverseDynamicsParams`.
     """
-    m, dws, ws, ref, task, kp, kd, mode, convention, angles, md_inv, options = params
-    with_force = options[0] != 0.0
-    damping = options[1]
+    m, dws, ws = params.model, params.workspace, params.task_workspace
+    task, kp, kd, md_inv = params.task, params.kp, params.kd, params.mass_inverse
+    ref, mode, convention, angles = params.reference, params.mode, params.convention, params.angle_reference
+    w, damping = params.with_force, params.damping
+    with_force = w != 0.0
     k = task.shape[0]
     pose_reference_into(ref, t, ws.frame)
     measure_into(m, q, qd, ws)
@@ -261,7 +310,7 @@ def inverse_dynamics_law(t, q, qd, z, h_e, params, tau_out, zdot_out, signals_ou
             acc += md_inv[r, c] * ws.h[c]
         ws.rhs[r] = acc
     task_solve_into(ws.A, ws.rhs, damping, ws.G, ws.y)
-    solve_and_apply(m, dws, ws, q, qd, h_e, options[0], tau_out)
+    solve_and_apply(m, dws, ws, q, qd, h_e, w, tau_out)
     log_task_signals(ws, task, signals_out, log_pose_signals(ws, signals_out))
 
 
@@ -298,8 +347,8 @@ class OperationalPD(TaskController):
 
     law = operational_pd_law
 
-    def params(self) -> tuple:
-        return self._common()
+    def params(self) -> OperationalPDParams:
+        return OperationalPDParams(**self._common())
 
 
 @scenario_type("operational_inverse_dynamics")
@@ -316,5 +365,6 @@ class OperationalInverseDynamics(TaskController):
     needs_inverse = True
     law = inverse_dynamics_law
 
-    def params(self) -> tuple:
-        return self._common() + (np.eye(self.k), np.array([0.0, float(self.damping)]))
+    def params(self) -> OperationalInverseDynamicsParams:
+        return OperationalInverseDynamicsParams(**self._common(), mass_inverse=np.eye(self.k),
+                                                with_force=0.0, damping=float(self.damping))

@@ -18,6 +18,16 @@ stage passes the loop's scratch array and three sizes instead of seven arrays an
 parameter tuple by value, ~10% of a PRP run.  Without one, :func:`law_trampoline` calls the
 law through its address.
 
+The parameters cross into the shared functions as plain tuples (:func:`plain_params`).  numba's
+disk cache keeps every signature a cached function was compiled for in one index, which it
+unpickles whole on every load: one signature naming a class that another process cannot import
+(the NamedTuple of a controller written in a script or a test module) would make every later
+process fail to load the loop.  So the entries (``rk4_run`` …) and the two trampolines see
+plain tuples, and only the law, the environment's law and a controller's own entry, cached in
+their own modules, are compiled for the NamedTuple itself.  A NamedTuple and the plain tuple of
+its fields have the same numba data model (memory layout and calling convention): both read
+the same stack copy and take the same call.
+
 The plant travels as one packed array ``pp`` (``armlab.kernels.plant``): arguments made of
 many arrays cost compile time in every function that receives them.  ``fn`` (int64 array)
 holds the addresses, in this order (``FN_*``):
@@ -66,7 +76,7 @@ import numpy as np
 from numba import njit, typeof, types
 
 from armlab.disturbances import disturbance_into
-from armlab.kernels.environment import free_space_law
+from armlab.kernels.environment import FreeSpaceParams, free_space_law
 from armlab.kernels.indirect import (
     borrowed,
     call_float,
@@ -170,6 +180,14 @@ def _type_key(value):
 _FN: dict = {}
 
 
+def plain_params(params):
+    """``params`` with every NamedTuple in it (nested ones too) as a plain tuple of the same
+    fields, the same objects: what the shared loop functions receive (module docstring)."""
+    if isinstance(params, tuple):
+        return tuple(plain_params(value) for value in params)
+    return params
+
+
 def addresses(law, env_law, cparams, eparams, forward_dynamics=None, kinetic_energy=None, entry=None):
     """The ``fn`` array for a loop with these parameters (compiles what is missing; remembered
     per law, entry, environment, plant kernels and parameter types).
@@ -201,22 +219,26 @@ def compile_shared() -> None:
         core_address(name)
     kernel_address(measure_packed, (_VEC, _VEC, _VEC, _VEC, _MAT, _VEC, _VEC), types.none)
     kernel_address(disturbance_into, (_VEC, _F64, _VEC, _VEC, _VEC), types.none)
-    free = typeof((np.zeros(1),))  # the parameters of a run without environment
-    kernel_address(env_trampoline, (types.CPointer(free), _I64, _F64, _MAT, _VEC, _VEC, _VEC), types.none)
-    kernel_address(free_space_law, (_F64, _MAT, _VEC, _VEC, free, _VEC), types.none)
+    # A run without an environment: FreeSpace's law and (empty) parameters.
+    free = FreeSpaceParams()
+    kernel_address(env_trampoline, (types.CPointer(typeof(plain_params(free))), _I64, _F64, _MAT, _VEC,
+                                    _VEC, _VEC), types.none)
+    kernel_address(free_space_law, (_F64, _MAT, _VEC, _VEC, typeof(free), _VEC), types.none)
 
 
 def _addresses(law, env_law, cparams, eparams, forward_dynamics, kinetic_energy, entry):
     vec, mat, f64, none = _VEC, _MAT, _F64, types.none
     ctype, etype = typeof(cparams), typeof(eparams)
+    cplain, eplain = typeof(plain_params(cparams)), typeof(plain_params(eparams))
     fd = forward_dynamics_packed if forward_dynamics is None else forward_dynamics
     ke = kinetic_energy_packed if kinetic_energy is None else kinetic_energy
     # An own entry has the law inlined: the law itself is then never called by address.
     own = entry is not None
     return np.array([
-        kernel_address(entry if own else law_trampoline, law_entry_types(ctype), none),
+        kernel_address(entry, law_entry_types(ctype), none) if own else
+        kernel_address(law_trampoline, law_entry_types(cplain), none),
         0 if own else kernel_address(law, (f64, vec, vec, vec, vec, ctype, vec, vec, vec), none),
-        kernel_address(env_trampoline, (types.CPointer(etype), _I64, f64, mat, vec, vec, vec), none),
+        kernel_address(env_trampoline, (types.CPointer(eplain), _I64, f64, mat, vec, vec, vec), none),
         kernel_address(env_law, (f64, mat, vec, vec, etype, vec), none),
         kernel_address(fd, (vec,) * 6, _I64),
         kernel_address(ke, (vec,) * 3, f64),

@@ -1,0 +1,171 @@
+"""Laws take named parameters: every bundled controller's and environment's ``params()`` is a
+module-level NamedTuple whose fields are exactly what its law reads, by name."""
+
+import inspect
+import re
+import sys
+from dataclasses import dataclass
+from typing import NamedTuple
+
+import numpy as np
+import pytest
+from numba import njit, typeof, types
+from numba.core.datamodel import default_manager
+from numba.core.errors import TypingError
+
+import armlab
+from armlab.control.adaptive import SlotineLi
+from armlab.control.base import Controller, Signal
+from armlab.environment import FreeSpace, PlanarWall, Spring
+from armlab.kernels import integrators
+from armlab.references import Sinusoid
+from armlab.scenarios import bundled_scenario_names, load_scenario
+from armlab.simulation import simulate
+
+PRP = armlab.load_robot("prp")
+
+
+def _bundled():
+    """One instance of every controller and environment class the bundled scenarios use, plus
+    the n-DoF Slotine–Li controller and the three environments."""
+    objects = {}
+    for name in bundled_scenario_names():
+        scenario = load_scenario(name)
+        for item in (scenario.controller, getattr(scenario, "environment", None)):
+            if item is not None:
+                objects.setdefault(type(item), item)
+    objects[SlotineLi] = SlotineLi(PRP, Sinusoid([0, 0, 0], 0.1, 1.0), 1.0, 1.0, 1.0)
+    objects[FreeSpace] = FreeSpace()
+    objects[Spring] = Spring(np.ones(6), np.zeros(3))
+    objects[PlanarWall] = PlanarWall([0, 0, 0], [0, 0, 1], 1000.0, 5.0)
+    return list(objects.values())
+
+
+BUNDLED = _bundled()
+
+
+def test_the_bundled_scenarios_cover_every_law_family():
+    names = {type(item).__name__ for item in BUNDLED}
+    assert {"JointPDGravity", "JointInverseDynamics", "SlotineLi1DoF", "SlotineLi", "OperationalPD",
+            "OperationalInverseDynamics", "ComplianceControl", "ImpedanceControl", "AdmittanceControl",
+            "ForceControl", "ParallelForcePosition", "FreeSpace", "Spring", "PlanarWall"} <= names
+
+
+@pytest.mark.parametrize("item", BUNDLED, ids=lambda item: type(item).__name__)
+def test_params_are_a_module_level_named_tuple_of_exactly_what_the_law_reads(item):
+    params = item.params()
+    kind = type(params)
+    assert isinstance(params, tuple) and kind is not tuple and hasattr(kind, "_fields")
+    # Module level: numba's disk cache finds the class again by its importable name.
+    assert kind.__qualname__ == kind.__name__
+    assert getattr(sys.modules[kind.__module__], kind.__name__) is kind
+    source = inspect.getsource(type(item).law.py_func)
+    assert not re.search(r"=\s*params\s*$|params\s*\[", source, re.MULTILINE), "positional read"
+    assert set(re.findall(r"\bparams\.(\w+)", source)) == set(kind._fields)
+
+
+# A law reading a field its parameters do not have: numba refuses it when it compiles.
+class ShortParams(NamedTuple):
+    kp: np.ndarray                 # (n,) [N·m/rad]
+
+
+@njit
+def misspelt_law(t, q, qd, z, h_e, params, tau_out, zdot_out, signals_out):
+    kp, kd = params.kp, params.nope
+    for i in range(q.shape[0]):
+        tau_out[i] = -kp[i] * q[i] - kd[i] * qd[i]
+
+
+@dataclass(frozen=True)
+class Misspelt(Controller):
+    model: armlab.Robot
+    law = misspelt_law
+
+    def params(self):
+        return ShortParams(kp=np.ones(self.n))
+
+
+def test_a_law_reading_a_missing_field_fails_to_compile_naming_it():
+    with pytest.raises(TypingError, match="nope"):
+        simulate(PRP, Misspelt(PRP), q0=[0, 0, 0], t_final=0.01, dt=1e-3)
+
+
+# The worked example of ``armlab.control.base``, as written there.
+class PDParams(NamedTuple):
+    q_des: np.ndarray              # (n,) target joint positions [m | rad]
+    kp: np.ndarray                 # (n,) K_P [N/m | N·m/rad]
+    kd: np.ndarray                 # (n,) K_D [N·s/m | N·m·s/rad]
+
+
+@njit(cache=True)
+def pd_law(t, q, qd, z, h_e, params, tau_out, zdot_out, signals_out):
+    q_des, kp, kd = params.q_des, params.kp, params.kd
+    for i in range(q.shape[0]):
+        tau_out[i] = kp[i] * (q_des[i] - q[i]) - kd[i] * qd[i]
+        signals_out[i] = q_des[i] - q[i]
+
+
+@dataclass(frozen=True)
+class PD(Controller):
+    model: armlab.Robot
+    q_des: np.ndarray
+    kp: np.ndarray
+    kd: np.ndarray
+    law = pd_law
+
+    def params(self):
+        return PDParams(q_des=np.asarray(self.q_des, float), kp=np.asarray(self.kp, float),
+                        kd=np.asarray(self.kd, float))
+
+    def signals(self):
+        return (Signal.joint("q_err", self.model, "error"),)
+
+
+def test_the_protocol_example_runs_and_logs_its_error():
+    q_des, kp, kd = np.array([0.1, 0.5, 0.05]), np.array([400.0, 50.0, 200.0]), np.array([40.0, 5.0, 20.0])
+    result = simulate(PRP, PD(PRP, q_des, kp, kd), q0=[0, 0, 0], t_final=0.5, dt=1e-3)
+    np.testing.assert_array_equal(result.signals["q_err"], q_des - result.q)
+    # τ = K_P q̃ − K_D q̇ on every logged row (no torque limit, no disturbance).
+    np.testing.assert_allclose(result.tau, kp * (q_des - result.q) - kd * result.qd, rtol=0, atol=1e-12)
+
+
+def _named_tuples_in(numba_type):
+    """The NamedTuple types inside a numba type (tuples, pointers), recursively."""
+    if isinstance(numba_type, types.BaseNamedTuple):
+        return [numba_type]
+    if isinstance(numba_type, types.BaseTuple):
+        return [found for member in numba_type for found in _named_tuples_in(member)]
+    if isinstance(numba_type, types.CPointer):
+        return _named_tuples_in(numba_type.dtype)
+    return []
+
+
+def test_the_shared_loop_functions_never_see_a_named_tuple():
+    # numba's cache index of a shared function holds every signature it was compiled for; a
+    # signature naming this test module's PDParams would break loading it in any process that
+    # cannot import this module.
+    q_des = np.array([0.1, 0.5, 0.05])
+    simulate(PRP, PD(PRP, q_des, 100.0 * np.ones(3), 20.0 * np.ones(3)), q0=[0, 0, 0], t_final=0.05,
+             dt=1e-3, method="adaptive")
+    scenario = load_scenario("a11_compliance")
+    scenario.run(t_final=0.01)
+    shared = (integrators.rk4_run, integrators.rhs, integrators.log_rows, integrators.law_trampoline,
+              integrators.env_trampoline)
+    signatures = [(function.py_func.__name__, signature) for function in shared
+                  for signature in function.signatures]
+    assert {name for name, _ in signatures} == {function.py_func.__name__ for function in shared}
+    named = [(name, found) for name, signature in signatures for argument in signature
+             for found in _named_tuples_in(argument)]
+    assert named == []
+
+
+@pytest.mark.parametrize("item", BUNDLED, ids=lambda item: type(item).__name__)
+def test_a_named_tuple_and_its_plain_tuple_share_numba_layout(item):
+    # The loop stores the plain tuple and the law reads it as its NamedTuple (integrators).
+    params = item.params()
+    named, plain = default_manager.lookup(typeof(params)), default_manager.lookup(
+        typeof(integrators.plain_params(params)))
+    assert typeof(integrators.plain_params(params)) != typeof(params)
+    assert named.get_value_type() == plain.get_value_type()
+    assert named.get_data_type() == plain.get_data_type()
+    assert named.get_argument_type() == plain.get_argument_type()
