@@ -5,7 +5,6 @@ from __future__ import annotations
 import sys
 
 from armlab.results import FORMATS
-from armlab.scenarios.runner import run_scenario
 
 
 def register(subparsers) -> None:
@@ -28,6 +27,7 @@ def register(subparsers) -> None:
 
 def run(args) -> int:
     from armlab.errors import ArmlabError
+    from armlab.scenarios.runner import run_scenario
 
     formats = [f.strip() for f in args.format.split(",") if f.strip()]
     for fmt in formats:

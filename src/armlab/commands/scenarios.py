@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 from armlab.commands import format_table
-from armlab.scenarios import bundled_scenario_names, load_scenario
 
 
 def register(subparsers) -> None:
@@ -15,6 +14,8 @@ def register(subparsers) -> None:
 
 
 def run(args) -> int:
+    from armlab.scenarios import bundled_scenario_names, load_scenario
+
     rows = []
     for name in bundled_scenario_names():
         scenario = load_scenario(name)
