@@ -15,8 +15,9 @@
 
 Before anything is timed, each side is checked against the other (the ``check_*`` functions,
 which ``tests/test_benchmark_agreement.py`` runs on a few states; tolerances in
-``agreement.py``).  The compiled loops here are compiled with the kernels' own fast-math flag
-(``{"contract"}``), as armlab's compiled entries are.
+``agreement.py``).  The compiled loops here are compiled with armlab's own kernel options
+(``armlab.kernels.dynamics.kernel``): code inlined into a function is compiled with that
+function's options, so the kernels run in these loops as they run in armlab's compiled entries.
 
 Both libraries get the same rigid-body model (motor rotors and friction removed: Pinocchio has
 no motor model), Pinocchio's from armlab's URDF export.  Times are the best of several
@@ -49,13 +50,11 @@ from armlab.kernels.dynamics import (
     rnea_inline,
     rnea_into,
 )
+from armlab.kernels.dynamics import kernel as compiled_loop
 from armlab.model.robot import Friction, Motor
 
 ROBOTS = ("prp", "puma560")
 REPEATS = 5
-# The loops below inline armlab's kernels; code inlined into a function is compiled with that
-# function's flags, so they pass the kernels' own (fused multiply-adds allowed).
-compiled_loop = njit(cache=True, fastmath={"contract"})
 
 
 def _rigid(robot):
@@ -354,7 +353,7 @@ def _prp_constants(robot):
 
 def _loop_over(rnea):
     """A compiled loop calling ``rnea`` (a generated kernel, bound at compile time)."""
-    @njit(fastmath={"contract"})
+    @compiled_loop
     def generated_loop(m, ws, Q, QD, QDD, h_e, out):
         for k in range(Q.shape[0]):
             rnea(m, ws, Q[k], QD[k], QDD[k], 1.0, h_e, out[k])
@@ -368,7 +367,7 @@ def _symbolic_tau_loop(robot):
 
     tau_into = closed_form_torque(robot)
 
-    @njit(fastmath={"contract"})
+    @compiled_loop
     def symbolic_loop(Q, QD, QDD, out):
         for k in range(Q.shape[0]):
             tau_into(Q[k], QD[k], QDD[k], out[k])
