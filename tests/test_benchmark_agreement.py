@@ -7,6 +7,7 @@ left to ``make bench``).  Tolerances and their reasons: ``benchmarks/agreement.p
 
 from __future__ import annotations
 
+import json
 import sys
 from pathlib import Path
 
@@ -18,6 +19,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
 import agreement  # noqa: E402
 import bench_dynamics  # noqa: E402
 import bench_simulation  # noqa: E402
+import bench_startup  # noqa: E402
 import bench_symbolic  # noqa: E402
 
 pytest.importorskip("pinocchio")
@@ -79,3 +81,15 @@ def test_the_compiled_closed_form_agrees_with_the_kernels():
 
     robot = armlab.load_robot("prp_actuated")
     bench_symbolic.check_closed_form_kernels(robot, closed_form_kernels(robot), states=3)
+
+
+def test_mujoco_runs_the_same_a7_trajectory():
+    pytest.importorskip("mujoco")
+    assert bench_startup.check_mujoco(t_final=2.0) < agreement.OTHER_ALGORITHM
+
+
+def test_the_random_arms_of_the_startup_benchmark_simulate(capsys):
+    for n in (3, 7):
+        bench_startup.first_simulate(n, t_final=0.01, dynamics="numeric")
+    finals = capsys.readouterr().out.split("\n")
+    assert [len(json.loads(line)["q_final"]) for line in finals if line] == [3, 7]
