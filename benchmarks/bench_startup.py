@@ -293,7 +293,7 @@ def empty_caches_case():
     """(c): first results with empty caches, one process each."""
     print(f"\n(c) Fresh process, empty caches (new NUMBA_CACHE_DIR and ARMLAB_CACHE_DIR), one process "
           f"each, stopped after {TIMEOUT:.0f} s")
-    print(f"  {'first result of':52s} {'wall':>16s} {'CPU':>9s}  target")
+    print(f"  {'first result of':64s} {'wall':>16s} {'CPU':>9s}  target")
     cases = [(f"armlab run {SCENARIO} --format npz", None, 10.0),
              ("random 3-joint arm: armlab.simulate, 10 s at 1 kHz", 3, 10.0),
              ("random 7-joint arm: armlab.simulate, 10 s at 1 kHz", 7, 15.0)]
@@ -308,7 +308,7 @@ def empty_caches_case():
         kind = "" if n is None or timed.timed_out else f" ({json.loads(timed.stdout)['dynamics']})"
         verdict = "met" if not timed.timed_out and timed.wall <= target else "NOT met"
         cpu = "" if timed.timed_out else f"{timed.cpu:.2f} s"
-        print(f"  {label + kind:52s} {timed.text():>16s} {cpu:>9s}  ≤ {target:g} s wall: {verdict}")
+        print(f"  {label + kind:64s} {timed.text():>16s} {cpu:>9s}  ≤ {target:g} s wall: {verdict}")
 
 
 def main():
