@@ -2,16 +2,21 @@
 
 Every figure is the time of a whole subprocess (interpreter start, imports, loading, the run):
 its wall time and its CPU time (user + system, all threads), the best of several processes.
+"Filled caches" include Python's own bytecode cache (kept in a folder of the benchmark's, see
+:func:`environment`): without it every process compiles each module it imports from source,
+numba's import alone then takes several times longer; (a) shows both.
 
 * **(a) Filled caches**: ``armlab run a7_id_via_points`` (the A7 computed-torque run, 10 s at
   1 kHz, RK4; its data written as .npz) against MuJoCo's fresh process for the same run: the
   PRP loaded from armlab's URDF export, RK4 at 1 kHz, the same computed torque
   τ = B(q) y + n(q, q̇) in a Python control callback (``mujoco.set_mjcb_control``, called at
   every RK4 stage as armlab's law is).  Target (issue 14): armlab ≤ 2× MuJoCo.  Beside it the
-  floor of any numba program: import numba and call one cached compiled function.
+  floor of any numba program (import numba, call one cached compiled function) and MuJoCo's
+  cheaper run with the torque computed once per step and held over its RK4 stages.
 * **(b)** ``import armlab`` (CPU) above ``import numba``; target ≤ 0.5 s.  Beside it the
   whole public API (every name of ``armlab.__all__`` touched) above ``import numba``.
-* **(c) Empty caches** (a new ``NUMBA_CACHE_DIR`` and ``ARMLAB_CACHE_DIR`` for each process):
+* **(c) Empty caches** (a new ``NUMBA_CACHE_DIR`` and ``ARMLAB_CACHE_DIR`` for each process;
+  Python's bytecode cached):
   the first A7 result (target ≤ 10 s); a 3-joint and a 7-joint arm with ordinary random
   parameters (:func:`random_arm`), their first ``armlab.simulate`` (targets ≤ 10 s, ≤ 15 s).
   One process each (a second would find its caches filled); a process still running after
@@ -90,19 +95,28 @@ def computed_torque(m, d):
     d.qfrc_applied[:] = tau + d.qfrc_bias
 
 
-mujoco.set_mjcb_control(computed_torque)
 steps = round(spec["t_final"] / spec["dt"])
 q = np.empty((steps + 1, n))
 q[0] = data.qpos
 start = time.perf_counter()
-for k in range(steps):
-    mujoco.mj_step(model, data)
-    q[k + 1] = data.qpos
-mujoco.set_mjcb_control(None)
+if spec["hold"]:
+    # The torque computed once per step and held over its four RK4 stages.
+    for k in range(steps):
+        mujoco.mj_forward(model, data)
+        computed_torque(model, data)
+        mujoco.mj_step(model, data)
+        q[k + 1] = data.qpos
+else:
+    mujoco.set_mjcb_control(computed_torque)
+    for k in range(steps):
+        mujoco.mj_step(model, data)
+        q[k + 1] = data.qpos
+    mujoco.set_mjcb_control(None)
 print(json.dumps({"q": q[::100].tolist(), "run": time.perf_counter() - start}))
 '''
 """MuJoCo's side of (a), a whole program; argument: a JSON spec (URDF path, reference, gains,
-t_final, dt); prints every 100th q and the seconds of the loop alone."""
+t_final, dt, hold: the torque computed once per step instead of at every RK4 stage); prints
+every 100th q and the seconds of the loop alone."""
 
 NUMBA_FLOOR = '''
 import sys
@@ -152,13 +166,6 @@ def best_of(count, args, env=None) -> Timed:
     return Timed(min(r.wall for r in runs), min(r.cpu for r in runs), runs[-1].stdout)
 
 
-def empty_caches() -> tuple[dict, list]:
-    """An environment with new, empty numba and armlab caches, and the folders to remove."""
-    folders = [tempfile.TemporaryDirectory(prefix="bench-startup-") for _ in range(2)]
-    env = dict(os.environ, NUMBA_CACHE_DIR=folders[0].name, ARMLAB_CACHE_DIR=folders[1].name)
-    return env, folders
-
-
 # --------------------------------------------------------------------- the arms of (c)
 def random_arm(n: int, seed: int = 0):
     """An n-joint revolute arm with ordinary, non-round random parameters, built with armlab's
@@ -203,7 +210,7 @@ def mujoco_available() -> bool:
     return importlib.util.find_spec("mujoco") is not None
 
 
-def mujoco_spec(folder, t_final=T_FINAL) -> str:
+def mujoco_spec(folder, t_final=T_FINAL, hold=False) -> str:
     """The JSON argument of :data:`MUJOCO_RUN`: the A7 plant as URDF in ``folder``, its
     reference and gains (read from the scenario, as armlab's side reads them)."""
     from armlab.model.urdf_io import save_urdf
@@ -215,7 +222,7 @@ def mujoco_spec(folder, t_final=T_FINAL) -> str:
     return json.dumps({"urdf": str(urdf), "times": np.asarray(controller.reference.times, float).tolist(),
                        "values": np.asarray(controller.reference.values, float).tolist(),
                        "kp": float(controller.kp[0, 0]), "kd": float(controller.kd[0, 0]),
-                       "t_final": t_final, "dt": DT})
+                       "t_final": t_final, "dt": DT, "hold": hold})
 
 
 def check_mujoco(t_final=T_FINAL) -> float:
@@ -232,56 +239,88 @@ def check_mujoco(t_final=T_FINAL) -> float:
 
 
 # ----------------------------------------------------------------------------- figures
+def environment(bytecode: str, **extra) -> dict:
+    """The environment of a measured process: this one's, with Python's bytecode cache kept in
+    the folder ``bytecode`` (``PYTHONPYCACHEPREFIX``: the benchmark writes nothing into the
+    installation and reads no bytecode from it) and written there even where this process runs
+    with ``PYTHONDONTWRITEBYTECODE``; ``extra`` added."""
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
+    return dict(env, PYTHONPYCACHEPREFIX=bytecode, **extra)
+
+
 def armlab_run_args(out_dir) -> list[str]:
     return [sys.executable, "-c", ARMLAB_CLI, "run", SCENARIO, "--out", str(out_dir), "--format", "npz"]
 
 
-def numba_floor() -> Timed:
+def numba_floor(env) -> Timed:
     """Import numba and call one compiled function from its disk cache (filled first)."""
     with tempfile.TemporaryDirectory() as folder:
         Path(folder, "numba_floor.py").write_text(
             "from numba import njit\n\n\n@njit(cache=True)\ndef one(x):\n    return x + 1.0\n")
         args = [sys.executable, "-c", NUMBA_FLOOR, folder]
-        run_process(args)
-        return best_of(BEST_OF, args)
+        run_process(args, env)
+        return best_of(BEST_OF, args, env)
 
 
-def filled_caches_case():
-    """(a): armlab's and MuJoCo's fresh processes for the A7 run; returns the ratios."""
+def fresh_processes(env, specs):
+    """armlab's A7 process, numba's floor and MuJoCo's process for each of ``specs``, best of
+    :data:`BEST_OF` each after one process that fills the caches."""
     with tempfile.TemporaryDirectory() as out:
-        run_process(armlab_run_args(out))                                 # fill the caches
-        armlab_side = best_of(BEST_OF, armlab_run_args(out))
-    floor = numba_floor()
+        run_process(armlab_run_args(out), env)
+        ours = best_of(BEST_OF, armlab_run_args(out), env)
+    theirs = []
+    for spec in specs:
+        mujoco = [sys.executable, "-c", MUJOCO_RUN, spec]
+        run_process(mujoco, env)
+        theirs.append(best_of(BEST_OF, mujoco, env))
+    return ours, numba_floor(env), theirs
+
+
+def filled_caches_case(bytecode):
+    """(a): armlab's and MuJoCo's fresh processes for the A7 run, with Python's bytecode cache
+    (what a user has from the second process on), then without it for comparison.  Beside
+    MuJoCo's same run, its run with the torque held over each step (a cheaper program, not the
+    same trajectory) for scale."""
     print(f"\n(a) Fresh process, filled caches: `armlab run {SCENARIO}` (10 s at 1 kHz, RK4, "
-          f"computed torque; best of {BEST_OF})")
-    print(f"  {'process':58s} {'wall':>8s} {'CPU':>8s}")
-    label = f"armlab run {SCENARIO} --format npz"
-    print(f"  {label:58s} {armlab_side.wall:7.2f}s {armlab_side.cpu:7.2f}s")
-    print(f"  {'(floor of any numba program: import numba, one cached call)':58s} "
-          f"{floor.wall:7.2f}s {floor.cpu:7.2f}s")
-    if not mujoco_available():
+          f"computed torque; best of {BEST_OF}, wall and CPU time)")
+    available = mujoco_available()
+    if not available:
         print("  MuJoCo is not installed (pip install -e '.[bench]'): its side is skipped")
-        return
-    difference = check_mujoco()
-    with tempfile.TemporaryDirectory() as folder:
-        theirs = best_of(BEST_OF, [sys.executable, "-c", MUJOCO_RUN, mujoco_spec(folder)])
-    loop = json.loads(theirs.stdout)["run"]
-    print(f"  {'MuJoCo: import, load the URDF, the same run':58s} {theirs.wall:7.2f}s {theirs.cpu:7.2f}s"
-          f"   (its loop alone {loop:.2f} s; max |q − q_armlab| {difference:.1e})")
-    for what in ("wall", "cpu"):
-        ratio = getattr(armlab_side, what) / getattr(theirs, what)
-        floor_ratio = getattr(floor, what) / getattr(theirs, what)
-        print(f"  armlab / MuJoCo ({what}): {ratio:.2f}× (target ≤ 2×: {'met' if ratio <= 2 else 'NOT met'}; "
-              f"numba's floor alone: {floor_ratio:.2f}×)")
+    else:
+        print(f"  MuJoCo's trajectory agrees with armlab's: max |q − q_armlab| {check_mujoco():.1e}")
+    with tempfile.TemporaryDirectory() as folder, tempfile.TemporaryDirectory() as none:
+        specs = [mujoco_spec(folder), mujoco_spec(folder, hold=True)] if available else []
+        labels = ["MuJoCo: import, load the URDF, the same run",
+                  "MuJoCo, torque held over each step (not the same run)"]
+        settings = (("Python bytecode cached", environment(bytecode)),
+                    ("no Python bytecode cache", environment(none, PYTHONDONTWRITEBYTECODE="1")))
+        for title, env in settings:
+            ours, floor, theirs = fresh_processes(env, specs)
+            print(f"  {title}:")
+            rows = [(f"armlab run {SCENARIO} --format npz", ours),
+                    ("floor of any numba program (import numba, one cached call)", floor)]
+            rows += [(f"{label} (its loop {json.loads(timed.stdout)['run']:.2f} s)", timed)
+                     for label, timed in zip(labels, theirs, strict=False)]
+            for label, timed in rows:
+                print(f"    {label:72s} {timed.wall:6.2f} s {timed.cpu:6.2f} s CPU")
+            if theirs:
+                same, held = theirs
+                wall, cpu = ours.wall / same.wall, ours.cpu / same.cpu
+                print(f"    armlab / MuJoCo, same run: {wall:.2f}× wall, {cpu:.2f}× CPU (target ≤ 2×: "
+                      f"{'met' if max(wall, cpu) <= 2 else 'NOT met'}); numba's floor alone "
+                      f"{floor.wall / same.wall:.2f}× wall, {floor.cpu / same.cpu:.2f}× CPU; "
+                      f"armlab / MuJoCo with held torque {ours.wall / held.wall:.2f}× wall, "
+                      f"{ours.cpu / held.cpu:.2f}× CPU")
 
 
-def import_case():
+def import_case(bytecode):
     """(b): CPU of ``import armlab`` above ``import numba``."""
-    numba_cpu = best_of(IMPORT_BEST_OF, [sys.executable, "-c", "import numba"]).cpu
-    armlab_cpu = best_of(IMPORT_BEST_OF, [sys.executable, "-c", "import armlab"]).cpu
-    whole = best_of(IMPORT_BEST_OF, [sys.executable, "-c",
-                                     "import armlab\nfor name in armlab.__all__: getattr(armlab, name)"]).cpu
-    print(f"\n(b) Import CPU time, fresh process (best of {IMPORT_BEST_OF}): import numba {numba_cpu:.2f} s")
+    env = environment(bytecode)
+    touch_all = "import armlab\nfor name in armlab.__all__: getattr(armlab, name)"
+    numba_cpu, armlab_cpu, whole = (best_of(IMPORT_BEST_OF, [sys.executable, "-c", code], env).cpu
+                                    for code in ("import numba", "import armlab", touch_all))
+    print(f"\n(b) Import CPU time, fresh process, Python bytecode cached (best of {IMPORT_BEST_OF}): "
+          f"import numba {numba_cpu:.2f} s")
     above = armlab_cpu - numba_cpu
     print(f"  import armlab: {armlab_cpu:.2f} s, {above:+.2f} s above numba "
           f"(target ≤ 0.5 s: {'met' if above <= 0.5 else 'NOT met'})")
@@ -289,22 +328,21 @@ def import_case():
           f"{whole - numba_cpu:+.2f} s above numba")
 
 
-def empty_caches_case():
-    """(c): first results with empty caches, one process each."""
-    print(f"\n(c) Fresh process, empty caches (new NUMBA_CACHE_DIR and ARMLAB_CACHE_DIR), one process "
-          f"each, stopped after {TIMEOUT:.0f} s")
+def empty_caches_case(bytecode):
+    """(c): first results with empty numba and armlab caches, one process each."""
+    print(f"\n(c) Fresh process, empty caches (new NUMBA_CACHE_DIR and ARMLAB_CACHE_DIR; Python "
+          f"bytecode cached), one process each, stopped after {TIMEOUT:.0f} s")
     print(f"  {'first result of':64s} {'wall':>16s} {'CPU':>9s}  target")
     cases = [(f"armlab run {SCENARIO} --format npz", None, 10.0),
              ("random 3-joint arm: armlab.simulate, 10 s at 1 kHz", 3, 10.0),
              ("random 7-joint arm: armlab.simulate, 10 s at 1 kHz", 7, 15.0)]
     for label, n, target in cases:
-        env, folders = empty_caches()
-        with tempfile.TemporaryDirectory() as out:
+        with (tempfile.TemporaryDirectory() as numba_cache, tempfile.TemporaryDirectory() as armlab_cache,
+              tempfile.TemporaryDirectory() as out):
+            env = environment(bytecode, NUMBA_CACHE_DIR=numba_cache, ARMLAB_CACHE_DIR=armlab_cache)
             args = (armlab_run_args(out) if n is None
                     else [sys.executable, "-c", FIRST_SIMULATE, str(HERE), str(n)])
             timed = run_process(args, env)
-        for folder in folders:
-            folder.cleanup()
         kind = "" if n is None or timed.timed_out else f" ({json.loads(timed.stdout)['dynamics']})"
         verdict = "met" if not timed.timed_out and timed.wall <= target else "NOT met"
         cpu = "" if timed.timed_out else f"{timed.cpu:.2f} s"
@@ -312,9 +350,10 @@ def empty_caches_case():
 
 
 def main():
-    import_case()
-    filled_caches_case()
-    empty_caches_case()
+    with tempfile.TemporaryDirectory() as bytecode:
+        filled_caches_case(bytecode)
+        import_case(bytecode)
+        empty_caches_case(bytecode)
 
 
 if __name__ == "__main__":
