@@ -30,7 +30,6 @@ def register(subparsers) -> None:
 
 def run(args) -> int:
     from armlab.errors import ArmlabError
-    from armlab.scenarios.runner import run_scenario
 
     formats = [f.strip() for f in args.format.split(",") if f.strip()]
     for fmt in formats:
