@@ -11,11 +11,13 @@
   simulation's entries call it, and behind a call), the closed form generated
   by ``armlab.symbolic`` and a hand-written closed form (the practical limit, ratio 1).
 * **Compile caching**: time to import armlab and make the first dynamics calls in a fresh
-  process with an empty numba cache, then in a second process that loads the cache.
+  process with empty caches (numba's and armlab's), then in a second process that loads them.
 
-Compiled loops are compiled without reference counting (``_nrt=False``), as the simulation
-loops are: with it, every row view ``Q[k]`` costs atomic increments and decrements, and the
-generated closed-form kernels (which reshape and slice) run several times slower.
+Before anything is timed, each side is checked against the other (the ``check_*`` functions,
+which ``tests/test_benchmark_agreement.py`` runs on a few states; tolerances in
+``agreement.py``).  The compiled loops here are compiled with armlab's own kernel options
+(``armlab.kernels.dynamics.kernel``): code inlined into a function is compiled with that
+function's options, so the kernels run in these loops as they run in armlab's compiled entries.
 
 Both libraries get the same rigid-body model (motor rotors and friction removed: Pinocchio has
 no motor model), Pinocchio's from armlab's URDF export.  Times are the best of several
@@ -40,6 +42,7 @@ import numpy as np
 from numba import njit
 
 import armlab
+from agreement import OTHER_ALGORITHM, SAME_ALGORITHM, assert_close
 from armlab.kernels.dynamics import (
     forward_dynamics_inline,
     make_workspace,
@@ -47,6 +50,7 @@ from armlab.kernels.dynamics import (
     rnea_inline,
     rnea_into,
 )
+from armlab.kernels.dynamics import kernel as compiled_loop
 from armlab.model.robot import Friction, Motor
 
 ROBOTS = ("prp", "puma560")
@@ -96,25 +100,25 @@ def _best_batch(f, states):
     return best / states
 
 
-@njit(cache=True, _nrt=False)
+@compiled_loop
 def _rnea_batch(m, ws, Q, QD, QDD, h_e, out):
     for k in range(Q.shape[0]):
         rnea_inline(m, ws, Q[k], QD[k], QDD[k], 1.0, h_e, out[k])
 
 
-@njit(cache=True, _nrt=False)
+@compiled_loop
 def _rnea_call_batch(m, ws, Q, QD, QDD, h_e, out):
     for k in range(Q.shape[0]):
         rnea_into(m, ws, Q[k], QD[k], QDD[k], 1.0, h_e, out[k])
 
 
-@njit(cache=True, _nrt=False)
+@compiled_loop
 def _crba_batch(m, ws, Q, out):
     for k in range(Q.shape[0]):
         mass_matrix_inline(m, ws, Q[k], out[k])
 
 
-@njit(cache=True, _nrt=False)
+@compiled_loop
 def _aba_batch(m, ws, Q, QD, TAU, h_e, out):
     for k in range(Q.shape[0]):
         forward_dynamics_inline(m, ws, Q[k], QD[k], TAU[k], h_e, out[k])
@@ -167,7 +171,7 @@ def _batch_pairs(pin, m, ws, h_e, model, data, Q, QD, QDD, QP, TAU, B, QDD_OUT):
     }
 
 
-@njit(cache=True, _nrt=False)
+@njit(cache=True)
 def _touch(packed, q, out):
     out[0, 0] = packed[0] + q[0]
     return 0
@@ -175,40 +179,118 @@ def _touch(packed, q, out):
 
 def call_floor_us():
     """µs of the bare mechanics of an ``inertia_matrix`` call on the PRP: a Python function that
-    allocates the (3, 3) output and calls compiled machine code with the wrapper's three arrays
-    (packed robot, q, output) that does nothing, directly as the wrapper does (no dispatcher)."""
+    allocates the (3, 3) output and calls, through numba's dispatcher, a compiled function that
+    does nothing with the wrapper's three arrays (packed robot, q, output)."""
     packed, q = np.zeros(500), np.zeros(3)
-    _touch(packed, q, np.empty((3, 3)))
-    code = _touch.overloads[_touch.signatures[0]].entry_point
 
     def wrapper(q):
         out = np.empty((3, 3))
-        code(packed, q, out)
+        _touch(packed, q, out)
         return out
 
     return _best(lambda: wrapper(q), 20000) * 1e6
 
 
+# ------------------------------------------------------------------------- agreement checks
+def check_per_call(name, closed_form=True):
+    """armlab's ``inverse_dynamics`` / ``inertia_matrix`` / ``forward_dynamics`` (general kernels
+    and, with ``closed_form``, the generated module) against Pinocchio at one state."""
+    import pinocchio as pin
+
+    robot = _rigid(armlab.load_robot(name))
+    model, data, to_pin = _pinocchio(robot)
+    if model.nq != robot.n:
+        return
+    Q, QD, QDD = _states(robot, 1)
+    q, qd, qdd = Q[0], QD[0], QDD[0]
+    tau = armlab.inverse_dynamics(robot, q, qd, qdd)
+    calls = _single_calls(pin, robot, model, data, q, qd, qdd, to_pin(q), tau)
+    for algorithm, (general, generated, theirs) in calls.items():
+        reference = theirs()
+        assert_close(general(), reference, OTHER_ALGORITHM, f"{name} {algorithm}: armlab vs Pinocchio")
+        if closed_form:
+            assert_close(generated(), reference, OTHER_ALGORITHM,
+                         f"{name} {algorithm}: armlab's closed form vs Pinocchio")
+
+
+def _batched(robot, Q, QD, QDD):
+    """τ, B and q̈ = FD(q, q̇, τ) at every state, each by armlab's kernels in one compiled loop."""
+    m, ws, h_e = robot.arrays, make_workspace(robot.n), np.zeros(6)
+    TAU, B, QDD_OUT = np.empty_like(Q), np.empty((Q.shape[0], robot.n, robot.n)), np.empty_like(Q)
+    _rnea_batch(m, ws, Q, QD, QDD, h_e, TAU)
+    _crba_batch(m, ws, Q, B)
+    _aba_batch(m, ws, Q, QD, TAU, h_e, QDD_OUT)
+    return TAU, B, QDD_OUT
+
+
+def check_batched(name, states):
+    """The compiled batch loops against Pinocchio, state by state (q̈ of the forward dynamics
+    must also return the q̈ the inverse dynamics started from)."""
+    import pinocchio as pin
+
+    robot = _rigid(armlab.load_robot(name))
+    model, data, to_pin = _pinocchio(robot)
+    if model.nq != robot.n:
+        return
+    Q, QD, QDD = _states(robot, states)
+    TAU, B, QDD_OUT = _batched(robot, Q, QD, QDD)
+    for k in range(states):
+        qp = to_pin(Q[k])
+        assert_close(TAU[k], pin.rnea(model, data, qp, QD[k], QDD[k]), OTHER_ALGORITHM,
+                     f"{name} batched rnea, state {k}")
+        assert_close(B[k], pin.crba(model, data, qp), OTHER_ALGORITHM, f"{name} batched crba, state {k}")
+        assert_close(QDD_OUT[k], pin.aba(model, data, qp, QD[k], TAU[k]), OTHER_ALGORITHM,
+                     f"{name} batched aba, state {k}")
+    assert_close(QDD_OUT, QDD, OTHER_ALGORITHM, f"{name} batched aba(rnea(q̈)) = q̈")
+
+
+def _prp_routes(robot, states, generated, symbolic):
+    """τ of every compiled PRP route at the same ``states`` random states."""
+    m, ws, h_e = robot.arrays, make_workspace(robot.n), np.zeros(6)
+    Q, QD, QDD = _states(robot, states)
+    k = _prp_constants(robot)
+    out = {route: np.empty_like(Q) for route in ("rnea_inline", "rnea_into", "generated", "symbolic",
+                                                  "hand-written")}
+    _rnea_batch(m, ws, Q, QD, QDD, h_e, out["rnea_inline"])
+    _rnea_call_batch(m, ws, Q, QD, QDD, h_e, out["rnea_into"])
+    generated(m, ws, Q, QD, QDD, h_e, out["generated"])
+    symbolic(Q, QD, QDD, out["symbolic"])
+    _prp_closed_form_batch(k, Q, QD, QDD, out["hand-written"])
+    return (Q, QD, QDD), out
+
+
+def check_prp_routes(states, routes=None):
+    """Every compiled PRP inverse-dynamics route against ``armlab.inverse_dynamics`` (the public
+    function) at each state: the RNEA inlined and behind a call to :data:`SAME_ALGORITHM`, the
+    generated, symbolic and hand-written closed forms to :data:`OTHER_ALGORITHM`."""
+    robot = armlab.load_robot("prp_actuated")
+    if routes is None:
+        from armlab.symbolic import closed_form_kernels
+
+        routes = (_loop_over(closed_form_kernels(robot).rnea_into), _symbolic_tau_loop(robot))
+    (Q, QD, QDD), out = _prp_routes(robot, states, *routes)
+    reference = np.array([armlab.inverse_dynamics(robot, Q[k], QD[k], QDD[k]) for k in range(states)])
+    for route, tau in out.items():
+        rtol = SAME_ALGORITHM if route.startswith("rnea") else OTHER_ALGORITHM
+        assert_close(tau, reference, rtol, f"PRP {route} vs armlab.inverse_dynamics")
+
+
+# ----------------------------------------------------------------------------------- timings
 def per_call_rows():
     import pinocchio as pin
 
     rows = []
     for name in ROBOTS:
+        check_per_call(name)
         robot = _rigid(armlab.load_robot(name))
         model, data, to_pin = _pinocchio(robot)
-        Q, QD, QDD = _states(robot, 1)
-        q, qd, qdd = Q[0], QD[0], QDD[0]
         if model.nq != robot.n:
             continue
-        qp = to_pin(q)
+        Q, QD, QDD = _states(robot, 1)
+        q, qd, qdd = Q[0], QD[0], QDD[0]
         tau = armlab.inverse_dynamics(robot, q, qd, qdd)
-        calls = _single_calls(pin, robot, model, data, q, qd, qdd, qp, tau)
+        calls = _single_calls(pin, robot, model, data, q, qd, qdd, to_pin(q), tau)
         for algorithm, (general, generated, theirs) in calls.items():
-            # Each variant's result is checked against Pinocchio's before it is timed.
-            ours, cf, reference = general(), generated(), theirs()
-            for value in (ours, cf):
-                if not np.allclose(value, reference, rtol=1e-9, atol=1e-9):
-                    raise AssertionError(f"{name} {algorithm}: armlab and Pinocchio disagree")
             a, c, p = _best_interleaved((general, generated, theirs))
             rows.append((name, algorithm, a * 1e6, c * 1e6, p * 1e6, a / p, c / p))
     return rows
@@ -219,6 +301,7 @@ def batch_rows(states=20000):
 
     rows = []
     for name in ROBOTS:
+        check_batched(name, 200)
         robot = _rigid(armlab.load_robot(name))
         model, data, to_pin = _pinocchio(robot)
         if model.nq != robot.n:
@@ -236,7 +319,7 @@ def batch_rows(states=20000):
     return rows
 
 
-@njit(cache=True, _nrt=False)
+@compiled_loop
 def _prp_closed_form_batch(k, Q, QD, QDD, out):
     """Hand-written closed-form PRP inverse dynamics, the practical limit for one evaluation:
 
@@ -270,11 +353,11 @@ def _prp_constants(robot):
 
 def _loop_over(rnea):
     """A compiled loop calling ``rnea`` (a generated kernel, bound at compile time)."""
-    @njit(_nrt=False)
-    def loop(m, ws, Q, QD, QDD, h_e, out):
+    @compiled_loop
+    def generated_loop(m, ws, Q, QD, QDD, h_e, out):
         for k in range(Q.shape[0]):
             rnea(m, ws, Q[k], QD[k], QDD[k], 1.0, h_e, out[k])
-    return loop
+    return generated_loop
 
 
 def _symbolic_tau_loop(robot):
@@ -284,11 +367,11 @@ def _symbolic_tau_loop(robot):
 
     tau_into = closed_form_torque(robot)
 
-    @njit(_nrt=False)
-    def loop(Q, QD, QDD, out):
+    @compiled_loop
+    def symbolic_loop(Q, QD, QDD, out):
         for k in range(Q.shape[0]):
             tau_into(Q[k], QD[k], QDD[k], out[k])
-    return loop
+    return symbolic_loop
 
 
 def prp_compiled_rows(states=200000):
@@ -297,41 +380,30 @@ def prp_compiled_rows(states=200000):
     which passes the robot and workspace flattened); the generated closed-form kernels
     (``armlab.symbolic.closed_form_kernels(...).rnea_into``: B, C, g written into matrices, then
     multiplied); armlab.symbolic's B q̈ + C q̇ + g as one compiled expression; and the
-    hand-written closed form (the practical limit)."""
+    hand-written closed form (the practical limit).  Checked first on 2000 states."""
     from armlab.symbolic import closed_form_kernels
 
     robot = armlab.load_robot("prp_actuated")
+    routes = (_loop_over(closed_form_kernels(robot).rnea_into), _symbolic_tau_loop(robot))
+    check_prp_routes(2000, routes)
     m, ws, h_e = robot.arrays, make_workspace(robot.n), np.zeros(6)
-    Q, QD, QDD = _states(robot, states)
-    TAU, TAU_HAND, TAU_GEN = np.empty_like(Q), np.empty_like(Q), np.empty_like(Q)
+    (Q, QD, QDD), out = _prp_routes(robot, states, *routes)
+    generated, symbolic = routes
     k = _prp_constants(robot)
-    generated = _loop_over(closed_form_kernels(robot).rnea_into)
-    symbolic = _symbolic_tau_loop(robot)
-    TAU_SYM = np.empty_like(Q)
-    _rnea_batch(m, ws, Q, QD, QDD, h_e, TAU)
-    _prp_closed_form_batch(k, Q, QD, QDD, TAU_HAND)
-    generated(m, ws, Q, QD, QDD, h_e, TAU_GEN)
-    symbolic(Q, QD, QDD, TAU_SYM)
-    for name, other in (("hand-written", TAU_HAND), ("generated", TAU_GEN), ("symbolic τ", TAU_SYM)):
-        if not np.allclose(other, TAU, rtol=1e-9, atol=1e-9):
-            raise AssertionError(f"{name} closed form disagrees with rnea_into: "
-                                 f"{np.abs(other - TAU).max():.3g}")
-    TAU_CALL = np.empty_like(Q)
-    _rnea_call_batch(m, ws, Q, QD, QDD, h_e, TAU_CALL)
-    if not np.array_equal(TAU_CALL, TAU):
-        raise AssertionError("rnea_into and rnea_inline disagree")
     return [
-        ("rnea_inline (general RNEA)", _best_batch(lambda: _rnea_batch(m, ws, Q, QD, QDD, h_e, TAU), states)),
+        ("rnea_inline (general RNEA)", _best_batch(
+            lambda: _rnea_batch(m, ws, Q, QD, QDD, h_e, out["rnea_inline"]), states)),
         ("rnea_into (the same, one call)", _best_batch(
-            lambda: _rnea_call_batch(m, ws, Q, QD, QDD, h_e, TAU_CALL), states)),
-        ("closed_form_kernels", _best_batch(lambda: generated(m, ws, Q, QD, QDD, h_e, TAU_GEN), states)),
-        ("closed_form_torque", _best_batch(lambda: symbolic(Q, QD, QDD, TAU_SYM), states)),
+            lambda: _rnea_call_batch(m, ws, Q, QD, QDD, h_e, out["rnea_into"]), states)),
+        ("closed_form_kernels", _best_batch(lambda: generated(m, ws, Q, QD, QDD, h_e, out["generated"]),
+                                            states)),
+        ("closed_form_torque", _best_batch(lambda: symbolic(Q, QD, QDD, out["symbolic"]), states)),
         ("hand-written closed form", _best_batch(
-            lambda: _prp_closed_form_batch(k, Q, QD, QDD, TAU_HAND), states)),
+            lambda: _prp_closed_form_batch(k, Q, QD, QDD, out["hand-written"]), states)),
     ]
 
 
-@njit(cache=True, _nrt=False)
+@compiled_loop
 def _reference_flops(X, out):
     for k in range(X.shape[0]):
         a, b, c = X[k, 0], X[k, 1], X[k, 2]
@@ -362,9 +434,10 @@ print(time.perf_counter() - start)
 
 
 def compile_times():
-    """(cold, warm) seconds: import + first calls with an empty cache, then from the cache."""
-    with tempfile.TemporaryDirectory() as cache:
-        env = dict(os.environ, NUMBA_CACHE_DIR=cache)
+    """(cold, warm) seconds: import + first calls with empty caches (numba's compiled kernels,
+    armlab's generated modules), then from those caches."""
+    with tempfile.TemporaryDirectory() as numba_cache, tempfile.TemporaryDirectory() as armlab_cache:
+        env = dict(os.environ, NUMBA_CACHE_DIR=numba_cache, ARMLAB_CACHE_DIR=armlab_cache)
         times = []
         for _ in range(2):
             out = subprocess.run([sys.executable, "-c", _FIRST_CALLS], env=env, capture_output=True,
@@ -382,8 +455,9 @@ def main():
           f"{'ratio':>7s} {'ratio cf':>9s}")
     for name, algorithm, a, c, p, r, rc in per_call_rows():
         print(f"{name:10s} {algorithm:9s} {a:9.2f} {c:12.2f} {p:10.2f} {r:7.2f} {rc:9.2f}")
-    print(f"(floor: a Python function allocating a (3, 3) output and calling machine code with "
-          f"the PRP crba wrapper's three arrays, doing nothing: {call_floor_us():.2f} µs)")
+    print(f"(floor: a Python function allocating a (3, 3) output and calling, through numba's "
+          f"dispatcher, a compiled function that does nothing with the PRP crba wrapper's three "
+          f"arrays: {call_floor_us():.2f} µs)")
     print("\nBatched, 20000 states per call [ns per state] "
           "(armlab: compiled loop; Pinocchio: Python loop)")
     print(f"{'robot':10s} {'algorithm':9s} {'armlab':>9s} {'pinocchio':>10s} {'ratio':>7s}")
@@ -399,8 +473,8 @@ def main():
     print(f"Machine pace for reference: 300 floating-point operations take {reference_ns():.0f} ns "
           "in a compiled loop")
     cold, warm = compile_times()
-    print(f"Import + first dynamics calls: {cold:.1f} s with an empty numba cache, "
-          f"{warm:.1f} s in a second process (cache on disk)")
+    print(f"Import + first dynamics calls: {cold:.1f} s with empty caches (numba, armlab), "
+          f"{warm:.1f} s in a second process (caches on disk)")
 
 
 if __name__ == "__main__":

@@ -8,13 +8,17 @@ loop with the PRP's closed-form dynamics, side by side in one run.
 * **Puma560**: the same controller and loop on the 6-DoF arm (armlab vs Pinocchio).
 * **Gain sweep**: 1000 runs of the A7 scenario (shortened to 1 s) with different gains,
   ``simulate_batch`` on all cores (threads: the compiled loop releases the GIL) vs one core.
-* **Compile time and time to first result**: a fresh process running the A7 scenario, with
-  an empty numba cache (compiles every kernel, the law and the loop) and again with it filled.
 
-Single-run times are the best of several repeats of thread CPU time (less sensitive to other
-processes on a shared machine): 20 of the compiled runs (a few ms each), 3 of the Python loop
-over Pinocchio (a third of a second each); the sweep uses wall time.  Targets (issue): armlab ≤ 3× the
-hand-written loop and ≥ 100× faster than the Pinocchio loop for the PRP, ≥ 20× for the Puma.
+(The time of a fresh process to its first result: ``bench_startup.py``.)
+
+Every side's trajectory is checked against armlab's before it is timed, and the sweep's
+threaded results against its one-thread results (bit for bit: each run is the same compiled
+code on the same inputs, whichever thread runs it); ``tests/test_benchmark_agreement.py`` runs
+the same checks on short runs.  Single-run times are the best of several repeats of thread CPU
+time (less sensitive to other processes on a shared machine): 20 of the compiled runs (a few ms
+each), 3 of the Python loop over Pinocchio (a third of a second each); the sweep uses wall
+time.  Targets (issue 14): armlab ≤ 2× the hand-written loop and ≥ 100× faster than the
+Pinocchio loop for the PRP, ≥ 30× for the Puma.
 
 Run: ``python benchmarks/bench_simulation.py`` or ``make bench``.
 """
@@ -22,9 +26,7 @@ Run: ``python benchmarks/bench_simulation.py`` or ``make bench``.
 from __future__ import annotations
 
 import os
-import subprocess
 import sys
-import tempfile
 import time
 from dataclasses import replace
 from pathlib import Path
@@ -33,6 +35,7 @@ import numpy as np
 from numba import njit
 
 import armlab
+from agreement import OTHER_ALGORITHM, assert_close
 from armlab.control.joint_space import JointInverseDynamics
 from armlab.references import ViaPoints
 from armlab.scenarios import load_scenario
@@ -68,7 +71,7 @@ def quintic(t, times, values):
     return values[j] + delta * s, delta * sd, delta * sdd
 
 
-def pinocchio_loop(robot, times, values, kp, kd, q0):
+def pinocchio_loop(robot, times, values, kp, kd, q0, t_final=T_FINAL):
     """RK4 closed loop in Python: τ = rnea(q, q̇, y) (computed torque), q̈ = aba(q, q̇, τ)."""
     import pinocchio as pin
 
@@ -89,7 +92,7 @@ def pinocchio_loop(robot, times, values, kp, kd, q0):
 
     def run():
         x = np.concatenate([q0, np.zeros(n)])
-        steps = int(round(T_FINAL / DT))
+        steps = int(round(t_final / DT))
         out = np.empty((steps + 1, n))
         out[0] = x[:n]
         for j in range(steps):
@@ -171,37 +174,42 @@ def prp_hand_loop(P, times, values, kp, kd, q0, steps, dt):
     return out
 
 
-def compare(name, robot, controller, times, values, kp, kd, q0, hand=None):
-    steps = int(round(T_FINAL / DT))
-    simulate(robot, controller, q0=q0, t_final=0.01, dt=DT)            # load/compile once
-    t_armlab, result = best_cpu(lambda: simulate(robot, controller, q0=q0, t_final=T_FINAL, dt=DT))
-    run_pin = pinocchio_loop(robot, times, values, kp, kd, q0)
-    t_pin, q_pin = best_cpu(run_pin, repeats=3)
-    kind = result.meta["dynamics"].replace("_", " ")
-    rows = [(f"armlab.simulate (compiled RK4 loop, {kind})", t_armlab, result.q)]
-    if kind != "numeric":
-        # The same run through the general RNEA/CRBA kernels, for comparison.
-        numeric = replace(controller, dynamics="numeric")
-        simulate(robot, numeric, q0=q0, t_final=0.01, dt=DT, dynamics="numeric")
-        t_num, r_num = best_cpu(lambda: simulate(robot, numeric, q0=q0, t_final=T_FINAL, dt=DT,
-                                                 dynamics="numeric"))
-        rows.append(("armlab.simulate, dynamics='numeric'", t_num, r_num.q))
-    rows.append(("Python RK4 loop over pinocchio.rnea/aba", t_pin, q_pin))
+ARMLAB = "armlab.simulate (compiled RK4 loop)"
+NUMERIC = "armlab.simulate, dynamics='numeric'"
+PINOCCHIO = "Python RK4 loop over pinocchio.rnea/aba"
+HAND = "hand-written numba loop, closed-form B, C, g"
+
+
+def verdict(met: bool) -> str:
+    return "met" if met else "NOT met"
+
+
+def sides(robot, controller, times, values, kp, kd, q0, t_final, hand=None):
+    """label → a function running that side for ``t_final`` and returning its q samples; armlab
+    first (with its default dynamics), then armlab's general kernels, Pinocchio, the hand loop."""
+    out = {
+        ARMLAB: lambda: simulate(robot, controller, q0=q0, t_final=t_final, dt=DT).q,
+        NUMERIC: lambda: simulate(robot, replace(controller, dynamics="numeric"), q0=q0, t_final=t_final,
+                                  dt=DT, dynamics="numeric").q,
+        PINOCCHIO: pinocchio_loop(robot, times, values, kp, kd, q0, t_final),
+    }
     if hand is not None:
-        hand(steps)                                                     # compile/load once
-        t_hand, q_hand = best_cpu(lambda: hand(steps))
-        rows.append(("hand-written numba loop, closed-form B, C, g", t_hand, q_hand))
-    print(f"\n{name}: computed torque, via points, {T_FINAL:g} s at {1 / DT:g} Hz, RK4 "
-          f"({steps} steps, {4 * steps} dynamics evaluations)")
-    print(f"  {'implementation':52s} {'time':>10s} {'armlab ÷ it':>12s} {'max |q − q_armlab|':>20s}")
-    for label, seconds, q in rows:
-        print(f"  {label:52s} {seconds * 1e3:8.2f} ms {t_armlab / seconds:12.3g} "
-              f"{np.abs(q - result.q).max():20.2e}")
-    return {("armlab" if label.startswith("armlab.simulate (") else label): seconds
-            for label, seconds, _ in rows}
+        steps = int(round(t_final / DT))
+        out[HAND] = lambda: hand(steps)
+    return out
 
 
-def prp_case():
+def check_sides(runs, what):
+    """Every side's trajectory against armlab's, to :data:`OTHER_ALGORITHM`; returns label → the
+    largest difference."""
+    reference = runs[ARMLAB]()
+    return {label: assert_close(run(), reference, OTHER_ALGORITHM, f"{what}: {label} vs armlab")
+            for label, run in runs.items()}
+
+
+def prp_setup():
+    """The A7 scenario and its sides' arguments (robot, controller, reference, gains, q0) and the
+    hand-written loop."""
     scenario = load_scenario("a7_id_via_points")
     robot, controller = scenario.plant, scenario.controller
     reference = controller.reference
@@ -216,26 +224,18 @@ def prp_case():
     def hand(steps):
         return prp_hand_loop(P, times, values, kp, kd, q0, steps, DT)
 
-    times_ = compare("PRP (seed A7 scenario a7_id_via_points)", robot, controller, times, values, kp, kd,
-                     q0, hand)
-    armlab_t = times_["armlab"]
-    pin_t = times_["Python RK4 loop over pinocchio.rnea/aba"]
-    hand_t = times_["hand-written numba loop, closed-form B, C, g"]
-    print(f"  targets: armlab ≤ 3× hand-written: {armlab_t / hand_t:.2f}× "
-          f"({'met' if armlab_t <= 3 * hand_t else 'NOT met'}); ≥ 100× faster than Pinocchio loop: "
-          f"{pin_t / armlab_t:.0f}× ({'met' if pin_t >= 100 * armlab_t else 'NOT met'})")
-    return scenario
+    return scenario, (robot, controller, times, values, kp, kd, q0), hand
 
 
-def puma_case():
+def puma_setup():
+    """The Puma560 under the same controller (rigid body: Pinocchio has no motor or friction
+    model): its sides' arguments, or None without its robot file."""
     if "puma560" not in armlab.bundled_robot_names():
-        print("\npuma560: no robot file, skipped")
-        return
+        return None
     robot = armlab.load_robot("puma560")
     n = robot.n
     arrays = robot.arrays
     if np.any(arrays.rotor_inertia != 0) or np.any(arrays.viscous != 0) or np.any(arrays.coulomb != 0):
-        # Pinocchio has no motor or friction model: compare the same rigid-body robot.
         joints = tuple(replace(j, motor=replace(j.motor, rotor_inertia=0.0),
                                friction=replace(j.friction, viscous=0.0, coulomb=0.0)) for j in robot.joints)
         robot = robot.replace(joints=joints)
@@ -245,16 +245,79 @@ def puma_case():
     values = np.stack([q0, goal, goal, 0.5 * goal])
     kp, kd = 25.0, 10.0
     controller = JointInverseDynamics(robot, ViaPoints(times, values), kp, kd)
-    t = compare("Puma560 (same controller, 6 joints)", robot, controller, times, values, kp, kd, q0)
-    ratio = t["Python RK4 loop over pinocchio.rnea/aba"] / t["armlab"]
-    verdict = "met" if ratio >= 20 else "NOT met"
-    print(f"  target: ≥ 20× faster than the Pinocchio loop: {ratio:.0f}× ({verdict})")
+    return robot, controller, times, values, kp, kd, q0
+
+
+def check_prp(t_final):
+    _, arguments, hand = prp_setup()
+    return check_sides(sides(*arguments, t_final, hand), "PRP A7")
+
+
+def check_puma(t_final):
+    arguments = puma_setup()
+    return None if arguments is None else check_sides(sides(*arguments, t_final), "Puma560")
+
+
+def compare(name, arguments, hand=None):
+    """Check, then time every side; print the table; return label → seconds."""
+    robot, controller, *_, q0 = arguments
+    kind = simulate(robot, controller, q0=q0, t_final=DT, dt=DT).meta["dynamics"].replace("_", " ")
+    runs = sides(*arguments, T_FINAL, hand)
+    differences = check_sides(runs, name)
+    seconds = {}
+    for label, run in runs.items():
+        run()                                                           # compile/load once
+        seconds[label] = best_cpu(run, repeats=3 if label == PINOCCHIO else 20)[0]
+    steps = int(round(T_FINAL / DT))
+    print(f"\n{name}: computed torque, via points, {T_FINAL:g} s at {1 / DT:g} Hz, RK4 "
+          f"({steps} steps, {4 * steps} dynamics evaluations)")
+    print(f"  {'implementation':52s} {'time':>10s} {'armlab ÷ it':>12s} {'max |q − q_armlab|':>20s}")
+    for label, t in seconds.items():
+        shown = f"{label[:-1]}, {kind})" if label == ARMLAB else label
+        print(f"  {shown:52s} {t * 1e3:8.2f} ms {seconds[ARMLAB] / t:12.3g} {differences[label]:20.2e}")
+    return seconds
+
+
+def prp_case():
+    scenario, arguments, hand = prp_setup()
+    t = compare("PRP (seed A7 scenario a7_id_via_points)", arguments, hand)
+    hand_ratio, pin_ratio = t[ARMLAB] / t[HAND], t[PINOCCHIO] / t[ARMLAB]
+    print(f"  targets: armlab ≤ 2× hand-written: {hand_ratio:.2f}× ({verdict(hand_ratio <= 2)}); "
+          f"≥ 100× faster than Pinocchio loop: {pin_ratio:.0f}× ({verdict(pin_ratio >= 100)})")
+    return scenario
+
+
+def puma_case():
+    arguments = puma_setup()
+    if arguments is None:
+        print("\npuma560: no robot file, skipped")
+        return
+    t = compare("Puma560 (same controller, 6 joints)", arguments)
+    ratio = t[PINOCCHIO] / t[ARMLAB]
+    print(f"  target: ≥ 30× faster than the Pinocchio loop: {ratio:.0f}× ({verdict(ratio >= 30)})")
+
+
+def sweep_controllers(scenario, runs):
+    base = scenario.controller
+    gains = np.linspace(4.0, 12.0, runs)
+    return [replace(base, kp=np.eye(3) * w**2, kd=np.eye(3) * 2 * w) for w in gains]
+
+
+def check_sweep(runs=4, t_final=0.1):
+    """``simulate_batch`` on all threads returns, bit for bit, what it returns on one."""
+    scenario = load_scenario("a7_id_via_points")
+    controllers = sweep_controllers(scenario, runs)
+    kwargs = dict(q0=np.zeros(3), t_final=t_final, dt=DT, log_every=10)
+    one = simulate_batch(scenario.plant, controllers, workers=1, **kwargs)
+    many = simulate_batch(scenario.plant, controllers, **kwargs)
+    for k, (a, b) in enumerate(zip(one, many, strict=True)):
+        if not np.array_equal(a.q, b.q):
+            raise AssertionError(f"sweep run {k}: threaded and one-thread results differ")
 
 
 def sweep_case(scenario, runs=1000, t_final=1.0):
-    base = scenario.controller
-    gains = np.linspace(4.0, 12.0, runs)
-    controllers = [replace(base, kp=np.eye(3) * w**2, kd=np.eye(3) * 2 * w) for w in gains]
+    check_sweep()
+    controllers = sweep_controllers(scenario, runs)
     kwargs = dict(q0=np.zeros(3), t_final=t_final, dt=DT, log_every=100)
     simulate_batch(scenario.plant, controllers[:2], **kwargs)              # load once
     # The whole sweep on one thread and on all, alternately, twice: best wall time of each
@@ -269,36 +332,20 @@ def sweep_case(scenario, runs=1000, t_final=1.0):
         wall = time.perf_counter() - start
         if wall < parallel:
             parallel, cores = wall, (time.process_time() - cpu) / wall
-    same = all(np.array_equal(a.q, b.q) for a, b in zip(one, results, strict=True))
-    print(f"\nGain sweep: {runs} runs of a7_id_via_points shortened to {t_final:g} s (ω_n = 4 … 12 rad/s)")
+    if not all(np.array_equal(a.q, b.q) for a, b in zip(one, results, strict=True)):
+        raise AssertionError("gain sweep: threaded and one-thread results differ")
+    gains = f"ω_n = {np.sqrt(controllers[0].kp[0, 0]):g} … {np.sqrt(controllers[-1].kp[0, 0]):g} rad/s"
+    print(f"\nGain sweep: {runs} runs of a7_id_via_points shortened to {t_final:g} s ({gains})")
     print(f"  simulate_batch, 1 thread:               {single:7.2f} s wall (best of 2)")
     print(f"  simulate_batch, {os.cpu_count()} threads:              {parallel:7.2f} s wall "
           f"(speed-up {single / parallel:.2f}×; process CPU time / wall time = {cores:.2f} cores busy; "
-          f"results identical to one thread: {same})")
-
-
-def fresh_process_case():
-    code = ("import time; t0 = time.perf_counter(); import armlab; "
-            "from armlab.scenarios import load_scenario; t1 = time.perf_counter(); "
-            "r = load_scenario('a7_id_via_points').run(); t2 = time.perf_counter(); "
-            "print(f'{t1 - t0:.3f} {t2 - t1:.3f}')")
-    print("\nFresh process: import armlab, then the A7 scenario (10 s at 1 kHz)")
-    with tempfile.TemporaryDirectory() as empty:
-        for label, env in (("empty numba cache (compiles every kernel)", {"NUMBA_CACHE_DIR": empty}),
-                           ("numba cache filled", {"NUMBA_CACHE_DIR": empty})):
-            start = time.perf_counter()
-            out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                                 env={**os.environ, **env}, check=True).stdout.split()
-            total = time.perf_counter() - start
-            print(f"  {label:40s} import {float(out[0]):6.2f} s, first result {float(out[1]):6.2f} s, "
-                  f"process total {total:6.2f} s")
+          f"results identical to one thread)")
 
 
 def main():
     scenario = prp_case()
     puma_case()
     sweep_case(scenario)
-    fresh_process_case()
 
 
 if __name__ == "__main__":

@@ -10,7 +10,9 @@
 * The PRP's whole A1–A5 chain as ``armlab derive prp`` prints it.
 * The compiled closed form against the numeric kernels (same signatures): time per call.
 
-Run: ``python benchmarks/bench_symbolic.py`` (or through the bench runner, which calls
+Each closed form is checked against the numeric kernels at random states before its figures
+are printed (``check_compact``, ``check_closed_form_kernels``; the test suite runs them on the
+PRP).  Run: ``python benchmarks/bench_symbolic.py`` (or through the bench runner, which calls
 :func:`main`).  Timings on a shared machine are noisy; ratios are measured side by side.
 """
 
@@ -20,6 +22,8 @@ import time
 
 import numpy as np
 import sympy as sp
+
+from agreement import OTHER_ALGORITHM, assert_close
 
 
 def _seconds(f, *args, repeat=1):
@@ -61,6 +65,29 @@ def _per_call(kernel, args, calls=20000):
 _LOOPS: dict = {}
 
 
+def check_compact(robot, sr, result, states=5):
+    """B, C, g of ``compact_dynamics`` (symbols of ``sr``, its values substituted) against
+    ``armlab.inertia_matrix`` / ``coriolis_matrix`` / ``gravity_torque`` at random states;
+    returns the largest difference."""
+    import armlab
+
+    values = sr.numeric_substitution()
+    B = sp.lambdify([list(sr.q)], result.B.xreplace(values))
+    C = sp.lambdify([list(sr.q), list(sr.qd)], result.C.xreplace(values))
+    g = sp.lambdify([list(sr.q)], result.g.xreplace(values))
+    rng = np.random.default_rng(0)
+    error = 0.0
+    for _ in range(states):
+        q, qd = rng.uniform(-np.pi, np.pi, size=(2, robot.n))
+        error = max(error,
+                    assert_close(B(q), armlab.inertia_matrix(robot, q), OTHER_ALGORITHM, f"{robot.name} B"),
+                    assert_close(C(q, qd), armlab.coriolis_matrix(robot, q, qd), OTHER_ALGORITHM,
+                                 f"{robot.name} C"),
+                    assert_close(np.ravel(g(q)), armlab.gravity_torque(robot, q), OTHER_ALGORITHM,
+                                 f"{robot.name} g"))
+    return error
+
+
 def puma_compact():
     import armlab
     from armlab.symbolic import compact_dynamics
@@ -69,17 +96,7 @@ def puma_compact():
     robot = armlab.load_robot("puma560")
     sr = symbolic_robot(robot)
     seconds, result = _seconds(compact_dynamics, sr)
-    values = sr.numeric_substitution()
-    B = sp.lambdify([list(sr.q)], result.B.xreplace(values))
-    C = sp.lambdify([list(sr.q), list(sr.qd)], result.C.xreplace(values))
-    g = sp.lambdify([list(sr.q)], result.g.xreplace(values))
-    rng = np.random.default_rng(0)
-    error = 0.0
-    for _ in range(5):
-        q, qd = rng.uniform(-np.pi, np.pi, size=(2, 6))
-        error = max(error, np.abs(B(q) - armlab.inertia_matrix(robot, q)).max(),
-                    np.abs(C(q, qd) - armlab.coriolis_matrix(robot, q, qd)).max(),
-                    np.abs(g(q).ravel() - armlab.gravity_torque(robot, q)).max())
+    error = check_compact(robot, sr, result)
     return {"puma560 B, C, g [s]": seconds, "puma560 ops B": result.ops["B"],
             "puma560 ops C": result.ops["C"], "puma560 ops g": result.ops["g"],
             "puma560 ops with CSE": result.ops_cse,
@@ -137,6 +154,24 @@ def prp_chain():
             "prp ops C": count_ops(items["C(q, q̇)"]), "prp ops g": count_ops(items["g(q)"])}
 
 
+def check_closed_form_kernels(robot, closed, states=5):
+    """The compiled closed form's ``mass_matrix_into`` / ``coriolis_matrix_into`` /
+    ``gravity_into`` against the numeric kernels of the same names at random states."""
+    from armlab.kernels import dynamics as numeric
+
+    m, n = robot.arrays, robot.n
+    ws = numeric.make_workspace(n)
+    rng = np.random.default_rng(1)
+    for _ in range(states):
+        q, qd = rng.uniform(-np.pi, np.pi, size=(2, n))
+        for name, args, shape in (("mass_matrix_into", (q,), (n, n)),
+                                  ("coriolis_matrix_into", (q, qd), (n, n)), ("gravity_into", (q,), (n,))):
+            ours, theirs = np.empty(shape), np.empty(shape)
+            getattr(closed, name)(m, ws, *args, ours)
+            getattr(numeric, name)(m, ws, *args, theirs)
+            assert_close(ours, theirs, OTHER_ALGORITHM, f"{robot.name} closed-form {name}")
+
+
 def compiled_vs_kernels(robot, result=None):
     from armlab.kernels import dynamics as numeric
     from armlab.symbolic import closed_form_kernels
@@ -152,6 +187,7 @@ def compiled_vs_kernels(robot, result=None):
     closed.coriolis_matrix_into(m, ws, q, qd, C)
     closed.gravity_into(m, ws, q, g)
     generation = time.perf_counter() - start
+    check_closed_form_kernels(robot, closed)
     out = {f"{robot.name} code generation + compilation [s]": generation}
     for name, args, buffer in (("mass_matrix_into", (q,), B), ("coriolis_matrix_into", (q, qd), C),
                                ("gravity_into", (q,), g)):

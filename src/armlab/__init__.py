@@ -1,48 +1,74 @@
 """armlab: modelling and control of robot manipulators.
 
 Conventions (frames, twist and wrench ordering, Euler angles, units): ``docs/notation.md``.
+
+The public names below are loaded on first use (PEP 562 module ``__getattr__``): ``import
+armlab`` itself imports neither numba nor SciPy, so the command line answers ``--help`` at
+once and a script pays only for what it touches (``armlab.load_robot`` reads a robot file
+without loading the compiled kernels).
 """
 
-from armlab.control.interaction import AdmittanceControl as AdmittanceControl
-from armlab.control.interaction import ComplianceControl as ComplianceControl
-from armlab.control.interaction import ForceControl as ForceControl
-from armlab.control.interaction import ImpedanceControl as ImpedanceControl
-from armlab.control.interaction import ParallelForcePosition as ParallelForcePosition
-from armlab.control.task_space import OperationalInverseDynamics as OperationalInverseDynamics
-from armlab.control.task_space import OperationalPD as OperationalPD
-from armlab.dynamics import coriolis_matrix as coriolis_matrix
-from armlab.dynamics import forward_dynamics as forward_dynamics
-from armlab.dynamics import gravity_torque as gravity_torque
-from armlab.dynamics import inertia_matrix as inertia_matrix
-from armlab.dynamics import inverse_dynamics as inverse_dynamics
-from armlab.dynamics import kinetic_energy as kinetic_energy
-from armlab.dynamics import potential_energy as potential_energy
-from armlab.environment import FreeSpace as FreeSpace
-from armlab.environment import PlanarWall as PlanarWall
-from armlab.environment import Spring as Spring
-from armlab.inverse_kinematics import UnreachableTargetError as UnreachableTargetError
-from armlab.inverse_kinematics import inverse_kinematics as inverse_kinematics
-from armlab.kinematics import analytic_jacobian as analytic_jacobian
-from armlab.kinematics import forward_kinematics, geometric_jacobian, link_frames
-from armlab.kinematics import jacobian_dot_qd as jacobian_dot_qd
-from armlab.kinematics import pose_vector as pose_vector
-from armlab.model import Robot, RobotFileError
-from armlab.model.urdf_io import load_urdf as load_urdf
-from armlab.model.urdf_io import save_urdf as save_urdf
-from armlab.model.urdf_io import to_urdf as to_urdf
-from armlab.operational_space import operational_space_dynamics as operational_space_dynamics
-from armlab.results import SimulationResult as SimulationResult
-from armlab.robots import bundled_robot_names, load_robot
-from armlab.simulation import SimulationDiverged as SimulationDiverged
-from armlab.simulation import simulate as simulate
-from armlab.simulation import simulate_batch as simulate_batch
-from armlab.spatial import RepresentationSingularityError as RepresentationSingularityError
-from armlab.task_references import ForceReference as ForceReference
-from armlab.task_references import PoseReference as PoseReference
+from __future__ import annotations
+
+import importlib
+import sys
+import types
 
 __version__ = "0.1.0"
 
-__all__ = [
-    "Robot", "RobotFileError", "bundled_robot_names", "forward_kinematics",
-    "geometric_jacobian", "link_frames", "load_robot",
-]
+_HOMES = {
+    "armlab.control.interaction": ("AdmittanceControl", "ComplianceControl", "ForceControl",
+                                   "ImpedanceControl", "ParallelForcePosition"),
+    "armlab.control.task_space": ("OperationalInverseDynamics", "OperationalPD"),
+    "armlab.dynamics": ("coriolis_matrix", "forward_dynamics", "gravity_torque", "inertia_matrix",
+                        "inverse_dynamics", "kinetic_energy", "potential_energy"),
+    "armlab.environment": ("FreeSpace", "PlanarWall", "Spring"),
+    "armlab.inverse_kinematics": ("UnreachableTargetError", "inverse_kinematics"),
+    "armlab.kinematics": ("analytic_jacobian", "forward_kinematics", "geometric_jacobian",
+                          "jacobian_dot_qd", "link_frames", "pose_vector"),
+    "armlab.model": ("Robot", "RobotFileError"),
+    "armlab.model.urdf_io": ("load_urdf", "save_urdf", "to_urdf"),
+    "armlab.operational_space": ("operational_space_dynamics",),
+    "armlab.results": ("SimulationResult",),
+    "armlab.robots": ("bundled_robot_names", "load_robot"),
+    "armlab.simulation": ("SimulationDiverged", "simulate", "simulate_batch"),
+    "armlab.spatial": ("RepresentationSingularityError",),
+    "armlab.task_references": ("ForceReference", "PoseReference"),
+}
+"""Where each public name is defined: module → names."""
+
+_MODULE_OF = {name: module for module, names in _HOMES.items() for name in names}
+
+__all__ = sorted(_MODULE_OF)
+
+
+def __getattr__(name: str):
+    """Import the module defining a public name on its first use, then keep the name here (so
+    later lookups are plain attribute reads)."""
+    module = _MODULE_OF.get(name)
+    if module is None:
+        raise AttributeError(f"module 'armlab' has no attribute {name!r}")
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))
+
+
+class _PublicNamesFirst(types.ModuleType):
+    """The ``armlab`` module, whose public names win over submodules of the same name.
+
+    Importing a submodule sets it as an attribute of its package: ``armlab.inverse_kinematics``
+    would become the module :mod:`armlab.inverse_kinematics` instead of the function it
+    defines.  That attribute is refused; the name then resolves through :func:`__getattr__`.
+    """
+
+    def __setattr__(self, name, value):
+        if name in _MODULE_OF and isinstance(value, types.ModuleType):
+            return
+        super().__setattr__(name, value)
+
+
+sys.modules[__name__].__class__ = _PublicNamesFirst

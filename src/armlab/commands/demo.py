@@ -9,8 +9,6 @@ import numpy as np
 
 from armlab.commands import CommandError, format_matrix, format_number, format_table, parse_vector
 from armlab.commands.robots import DH_HEADERS, dh_rows
-from armlab.kinematics import forward_kinematics
-from armlab.robots import load_robot
 
 SEED_POSE = np.array([0.1, np.pi / 3, 0.1])
 """The pose of the seed's A1 figures: d1 = 0.1 m, θ2 = π/3 rad, d3 = 0.1 m."""
@@ -31,6 +29,9 @@ def register(subparsers) -> None:
 
 
 def run(args) -> int:
+    from armlab.kinematics import forward_kinematics
+    from armlab.robots import load_robot
+
     robot = load_robot(args.robot)
     if args.q is not None:
         q = parse_vector(args.q, robot.n, "--q")

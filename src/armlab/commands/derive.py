@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-from armlab.robots import load_robot
-
 
 def register(subparsers) -> None:
     parser = subparsers.add_parser(
@@ -26,7 +24,10 @@ def register(subparsers) -> None:
 
 
 def run(args) -> int:
+    from armlab.robots import load_robot
+
     robot = load_robot(args.robot)
+    # SymPy (seconds to import) only once the robot file has been read without error.
     from armlab.symbolic import derive, render
 
     sections = derive(robot, frame=args.frame, numeric=args.numeric, only=args.only)

@@ -4,13 +4,14 @@ inertials, motors, friction) and optionally export it as URDF."""
 from __future__ import annotations
 
 import re
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from armlab.commands import format_matrix, format_number, format_table
-from armlab.model.robot import Robot
-from armlab.robots import bundled_robot_names, load_robot
-from armlab.spatial import rpy_from_matrix
+
+if TYPE_CHECKING:
+    from armlab.model.robot import Robot
 
 KIND_LETTER = {"revolute": "R", "prismatic": "P"}
 JOINT_VARIABLE = {"revolute": "theta", "prismatic": "d"}
@@ -28,6 +29,8 @@ def register(subparsers) -> None:
 
 
 def run(args) -> int:
+    from armlab.robots import load_robot
+
     if args.name is None:
         print(robots_table())
         return 0
@@ -46,6 +49,8 @@ def joint_kinds(robot: Robot) -> str:
 
 
 def robots_table() -> str:
+    from armlab.robots import bundled_robot_names, load_robot
+
     rows = []
     for name in bundled_robot_names():
         robot = load_robot(name)
@@ -128,6 +133,8 @@ def _vector(v) -> str:
 
 def describe(robot: Robot) -> str:
     """Multi-line description of ``robot`` (what ``armlab robots NAME`` prints)."""
+    from armlab.spatial import rpy_from_matrix
+
     out = [f"{robot.name}: {robot.description}".rstrip(": ")]
     provenance = (robot.spec or {}).get("provenance")
     if provenance:
