@@ -78,18 +78,12 @@ def _per_joint(value, n: int, field: str, default: float) -> np.ndarray:
 
 def _divergence_limits(plant, limit_margin: float) -> tuple[np.ndarray, np.ndarray]:
     """(q_lo, q_hi): the joint limits widened by ``limit_margin`` of their span (±∞ where a
-    joint has none).  Kept by the plant per margin: every run shares them (the loop only reads
-    them; they stay writeable, the type the compiled loop was built for)."""
-    known = plant.__dict__.setdefault("_divergence_limits", {})
-    limits = known.get(limit_margin)
-    if limits is None:
-        arrays = plant.arrays
-        span = arrays.q_max - arrays.q_min
-        margin = np.where(np.isfinite(span), limit_margin * span, np.inf)
-        limits = (np.where(np.isfinite(arrays.q_min), arrays.q_min - margin, -np.inf),
-                  np.where(np.isfinite(arrays.q_max), arrays.q_max + margin, np.inf))
-        known[limit_margin] = limits
-    return limits
+    joint has none); new writeable arrays, the type the compiled loop was built for (~10 µs)."""
+    arrays = plant.arrays
+    span = arrays.q_max - arrays.q_min
+    margin = np.where(np.isfinite(span), limit_margin * span, np.inf)
+    return (np.where(np.isfinite(arrays.q_min), arrays.q_min - margin, -np.inf),
+            np.where(np.isfinite(arrays.q_max), arrays.q_max + margin, np.inf))
 
 
 def _steps(span: float, dt: float, field: str) -> int:
