@@ -76,6 +76,23 @@ def buffer_view(typingctx, buf, offset, shape, dtype):
     return result(buf, offset, shape, dtype), codegen
 
 
+@intrinsic
+def borrowed(typingctx, array):
+    """``borrowed(array)``: ``array`` without its owner, a view that adds no reference count.
+    For views that live only while the caller holds ``array`` (never returned); see
+    :func:`armlab.kernels.plant.unpack_plant`."""
+    if not isinstance(array, types.Array):
+        return None
+
+    def codegen(context, builder, sig, args):
+        view = make_array(sig.args[0])(context, builder, args[0])
+        view.meminfo = context.get_constant_null(types.MemInfoPointer(types.voidptr))
+        view.parent = context.get_constant_null(types.pyobject)
+        return view._getvalue()
+
+    return array(array), codegen
+
+
 @njit(cache=True, inline="always")
 def unpack_robot(joint_type, data):
     """The :class:`RobotArrays` whose float arrays are views into ``data`` (see pack_robot).
