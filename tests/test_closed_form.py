@@ -1,4 +1,4 @@
-"""Robot-specialised closed-form dynamics (armlab.closed_form) against the numeric kernels, and
+"""Robot-specialised closed-form dynamics (armlab.specialise) against the numeric kernels, and
 its use by the simulator and the computed-torque controller."""
 
 import pickle
@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import armlab
-from armlab.closed_form import ClosedFormUnavailable, closed_form_module, closed_form_status
+from armlab.specialise import ClosedFormUnavailable, closed_form_module, closed_form_status, robot_key
 from armlab.control.base import ProtocolError
 from armlab.kernels.plant import pack_plant
 from armlab.scenarios import load_scenario
@@ -76,28 +76,40 @@ def test_the_wrench_term_of_the_closed_form_in_a_contact_run():
 
 def test_auto_uses_the_generated_dynamics_for_small_and_large_robots():
     prp, puma = armlab.load_robot("prp"), armlab.load_robot("puma560")
+    for robot in (prp, puma):
+        closed_form_module(robot)           # "auto" uses a module made on request earlier
     pd = armlab.control.joint_space.JointPDGravity
     reference = armlab.references.Constant
     small = simulate(prp, pd(prp, reference(np.zeros(3)), 10.0, 2.0), q0=np.zeros(3), t_final=0.01,
                      dt=1e-3)
     large = simulate(puma, pd(puma, reference(np.zeros(6)), 10.0, 2.0), q0=np.zeros(6), t_final=0.01,
                      dt=1e-3)
-    # Lagrange's closed form for the PRP, the traced kernels (armlab.traced) for the Puma.
+    # Lagrange's closed form for the PRP, the traced kernels (armlab.specialise.traced) for the Puma.
     assert small.meta["dynamics"] == "closed_form" and large.meta["dynamics"] == "closed_form"
     assert "armlab.symbolic" in closed_form_module(prp).__doc__
-    assert "armlab.traced" in closed_form_module(puma).__doc__
+    assert "armlab.specialise.traced" in closed_form_module(puma).__doc__
 
 
-def test_auto_leaves_robots_beyond_its_size_to_the_numeric_kernels(monkeypatch):
-    from armlab import closed_form
+def test_auto_leaves_robots_without_a_module_on_disk_to_the_numeric_kernels(monkeypatch, tmp_path):
+    from armlab import specialise
 
     puma = armlab.load_robot("puma560")
-    monkeypatch.setattr(closed_form, "AUTO_MAX_JOINTS", puma.n - 1)
-    assert closed_form.plant_kernels(puma, "auto")[0] == "numeric"
-    assert closed_form.plant_kernels(puma, "closed_form")[0] == "closed_form"  # asked for by name
+    specialise.closed_form_module(puma)
+    module = specialise.closed_form.cache_dir() / "closed_form" / f"armlab_closed_form_{robot_key(puma)}.py"
+    assert module.is_file()
+    # Another cache folder, as a fresh machine has, and a process that has not met the Puma.
+    monkeypatch.setenv("ARMLAB_CACHE_DIR", str(tmp_path))
+    monkeypatch.setattr(specialise.closed_form, "_OUTCOMES", {})
+    assert specialise.plant_kernels(puma, "auto")[0] == "numeric"
+    assert not (tmp_path / "closed_form").exists()                        # nothing was made
+    # Back on this machine's cache: the module on disk is found (and checked) again.
+    monkeypatch.setenv("ARMLAB_CACHE_DIR", str(module.parents[1]))
+    assert specialise.plant_kernels(puma, "auto")[0] == "closed_form"
 
 
-def test_bad_choices_and_unavailable_closed_forms_are_named():
+def test_bad_choices_and_unavailable_closed_forms_are_named(monkeypatch):
+    from armlab import specialise
+
     scenario = load_scenario("a7_id_via_points")
     with pytest.raises(SimulationError, match="dynamics: 'fast'"):
         simulate(scenario.plant, scenario.controller, q0=np.zeros(3), t_final=0.01, dt=1e-3,
@@ -107,7 +119,7 @@ def test_bad_choices_and_unavailable_closed_forms_are_named():
     robot = armlab.load_robot("prp")
     # A robot whose closed form disagrees with its kernels is refused, with the reason kept.
     broken = robot.replace(links=robot.links)
-    broken.__dict__["_closed_form_module"] = (False, "inverse dynamics differ (test)")
+    monkeypatch.setitem(specialise.closed_form._OUTCOMES, robot_key(broken), "inverse dynamics differ (test)")
     with pytest.raises(ClosedFormUnavailable, match="differ"):
         closed_form_module(broken)
     assert closed_form_status(broken) == "inverse dynamics differ (test)"
@@ -126,12 +138,12 @@ def test_a_robot_with_a_closed_form_still_pickles():
 
 
 def test_a_pickled_robot_finds_its_closed_form_in_a_fresh_process(monkeypatch):
-    import armlab.closed_form as cf
+    import armlab.specialise.closed_form as cf
 
     robot = armlab.load_robot("prp")
     module = closed_form_module(robot)
     copy = pickle.loads(pickle.dumps(robot))
-    monkeypatch.setattr(cf, "_MODULES", {})           # what another process starts with
+    monkeypatch.setattr(cf, "_OUTCOMES", {})          # what another process starts with
     assert closed_form_module(copy).__name__ == module.__name__
 
 
@@ -215,11 +227,12 @@ def test_a_robot_keeps_its_generated_entries_out_of_pickles():
     np.testing.assert_array_equal(armlab.inertia_matrix(copy, q, dynamics="closed_form"), B)
 
 
-def test_auto_beyond_its_size_calls_the_kernels(monkeypatch):
-    from armlab import closed_form
+def test_auto_without_a_module_on_disk_calls_the_kernels(monkeypatch, tmp_path):
+    from armlab import specialise
 
     puma = armlab.load_robot("puma560")
-    monkeypatch.setattr(closed_form, "AUTO_MAX_JOINTS", puma.n - 1)
+    monkeypatch.setenv("ARMLAB_CACHE_DIR", str(tmp_path))
+    monkeypatch.setattr(specialise.closed_form, "_OUTCOMES", {})
     q, qd, tau = np.full(6, 0.3), np.full(6, -0.2), np.ones(6)
     np.testing.assert_array_equal(armlab.forward_dynamics(puma, q, qd, tau, dynamics="auto"),
                                   armlab.forward_dynamics(puma, q, qd, tau))

@@ -261,13 +261,13 @@ def _closed_form(robot: Robot, dynamics: str):
     if type(dynamics) is str and dynamics == NUMERIC:
         return False
     if not (type(dynamics) is str and dynamics in _GENERATED_CHOICES):
-        from armlab.closed_form import DYNAMICS_CHOICES
+        from armlab.specialise import DYNAMICS_CHOICES
 
         raise ValueError(f"dynamics: {dynamics!r} is not one of {', '.join(DYNAMICS_CHOICES)}")
     generated = _pack(robot)[3]
     entries = generated.get(dynamics)
     if entries is None:
-        from armlab.closed_form import chosen_module
+        from armlab.specialise import chosen_module
 
         module = chosen_module(robot, dynamics)
         entries = False if module is None else ((

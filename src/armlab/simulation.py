@@ -40,7 +40,7 @@ import time
 
 import numpy as np
 
-from armlab.closed_form import ClosedFormUnavailable, choice_problem, plant_kernels
+from armlab.specialise import ClosedFormUnavailable, choice_problem, plant_kernels
 from armlab.control.base import Controller, Environment, ProtocolError, Signal
 from armlab.disturbances import encode_disturbances
 from armlab.dynamics import packed_copy
@@ -303,10 +303,10 @@ def simulate(plant, controller, *, q0, qd0=None, t_final, dt, method="rk4", cont
     limit_margin : a joint further than this fraction of its range outside its limits diverges.
     max_kinetic_energy : [J] bound of ½ q̇ᵀ B q̇ (checked every 10 steps).
     on_divergence : "raise" (``SimulationDiverged`` with ``.result``) or "return".
-    dynamics : the plant's forward dynamics: "auto" (its generated closed form — Lagrange for
-        up to 3 joints, the traced kernels beyond — when it has at most
-        ``armlab.closed_form.AUTO_MAX_JOINTS`` joints, else the RNEA/CRBA kernels),
-        "closed_form" or "numeric" (``armlab.closed_form``).
+    dynamics : the plant's forward dynamics: "auto" (the robot's generated closed form if one
+        is on disk already — made by an earlier "closed_form" request — else at once the
+        RNEA/CRBA kernels), "closed_form" (made now if needed: Lagrange for up to 3 joints, the
+        traced kernels beyond) or "numeric" (``armlab.specialise``).
     meta : extra JSON-able entries for ``result.meta`` (scenario name, …).
     """
     if method not in ("rk4", "adaptive"):

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit, types
 
-from armlab.closed_form import ClosedFormUnavailable, choice_problem, inverse_dynamics_kernel
+from armlab.specialise import ClosedFormUnavailable, choice_problem, inverse_dynamics_kernel
 from armlab.control.base import Controller, ProtocolError, Signal
 from armlab.dynamics import packed_copy
 from armlab.kernels.dynamics import gravity_into, make_workspace

@@ -46,7 +46,7 @@ from pathlib import Path
 
 import numpy as np
 
-from armlab.closed_form import choice_problem
+from armlab.specialise import choice_problem
 from armlab.control.adaptive import SlotineLi, SlotineLi1DoF
 from armlab.control.joint_space import JointInverseDynamics, JointPDGravity
 from armlab.disturbances import DISTURBANCE_TYPES
