@@ -185,19 +185,11 @@ def closed_form_source(sr: SymbolicRobot, *, key: str, name: str) -> str:
             + "\n".join(checked_inverse_lines(n)) + "\n")
 
 
-def _plain(name: str, n: int) -> str:
-    """The test that vector ``name`` has n items 8 bytes apart (any stride for one item) from an
-    8-byte aligned address: the Python entries' machine code is called without numba's type
-    check (``armlab.dynamics``)."""
-    stride = f"{name}.strides[0] == 8" if n > 1 else "True"
-    return f"({name}.shape[0] == {n} and {stride} and {name}.ctypes.data % 8 == 0)"
-
-
 def mass_matrix_lines(n: int, body: list[str], entries: list[str]) -> list[str]:
     """``mass_matrix(packed, q, B_out)``: ``body`` computes the n² row-major ``entries``."""
     return ["@njit(cache=True)", "def mass_matrix(packed, q, B_out):",
-            '    """B(q) (D2); 1 unless q is a plain vector of the right length."""',
-            f"    if not {_plain('q', n)} or B_out.shape[0] != {n} or B_out.shape[1] != {n}:",
+            '    """B(q) (D2); 1 for a wrong length."""',
+            f"    if q.shape[0] != {n} or B_out.shape[0] != {n} or B_out.shape[1] != {n}:",
             "        return 1", *body,
             *[f"    B_out[{i}, {j}] = {entries[n * i + j]}" for i in range(n) for j in range(n)],
             "    return 0"]
@@ -207,10 +199,9 @@ def checked_inverse_lines(n: int) -> list[str]:
     """``checked_inverse_dynamics``: the module's ``inverse_dynamics`` after a length check."""
     return ["@njit(cache=True)",
             "def checked_inverse_dynamics(packed, q, qd, qdd, tau_out):",
-            '    """inverse_dynamics for calls from Python; 1 unless the vectors are plain and of the'
-            ' right length."""',
-            f"    if not ({_plain('q', n)} and {_plain('qd', n)} and {_plain('qdd', n)})"
-            f" or tau_out.shape[0] != {n}:",
+            '    """inverse_dynamics for calls from Python; 1 for a wrong length."""',
+            f"    if (q.shape[0] != {n} or qd.shape[0] != {n} or qdd.shape[0] != {n}"
+            f" or tau_out.shape[0] != {n}):",
             "        return 1",
             "    inverse_dynamics(packed, q, qd, qdd, tau_out)",
             "    return 0"]
