@@ -8,11 +8,11 @@ import numpy as np
 import pytest
 
 import armlab
-from armlab.specialise import ClosedFormUnavailable, closed_form_module, closed_form_status, robot_key
 from armlab.control.base import ProtocolError
 from armlab.kernels.plant import pack_plant
 from armlab.scenarios import load_scenario
 from armlab.simulation import SimulationError, simulate
+from armlab.specialise import ClosedFormUnavailable, closed_form_module, closed_form_status, robot_key
 from armlab.symbolic.energy import inertia_matrix
 from armlab.symbolic.model import symbolic_robot
 
@@ -236,3 +236,87 @@ def test_auto_without_a_module_on_disk_calls_the_kernels(monkeypatch, tmp_path):
     q, qd, tau = np.full(6, 0.3), np.full(6, -0.2), np.ones(6)
     np.testing.assert_array_equal(armlab.forward_dynamics(puma, q, qd, tau, dynamics="auto"),
                                   armlab.forward_dynamics(puma, q, qd, tau))
+
+
+# What "auto" does for an arm nobody asked a closed form for: a 3-joint arm with ordinary
+# (random, non-round) numbers, whose Lagrange derivation can take many minutes.
+AUTO_PROGRAM = """
+import json, pickle, sys
+import numpy as np
+from armlab.control.joint_space import JointInverseDynamics
+from armlab.kernels.plant import inverse_dynamics_packed
+from armlab.references import Constant
+from armlab.simulation import simulate
+from armlab.specialise import inverse_dynamics_kernel
+with open(sys.argv[1], "rb") as stream:
+    robot = pickle.load(stream)
+controller = JointInverseDynamics(robot, Constant(np.zeros(3)), 25.0, 10.0)
+result = simulate(robot, controller, q0=np.zeros(3), t_final=0.01, dt=1e-3)
+print(json.dumps({"plant": result.meta["dynamics"],
+                  "controller_numeric": inverse_dynamics_kernel(robot) is inverse_dynamics_packed,
+                  "sympy": sorted(m for m in sys.modules if m.split(".")[0] == "sympy")[:3]}))
+"""
+
+
+def ordinary_arm(seed: int = 3):
+    """A revolute–prismatic–revolute arm with random DH numbers, motors and friction."""
+    import strategies
+    from armlab.model.robot import Link, Robot
+
+    rng = np.random.default_rng(seed)
+    joints = tuple(strategies._joint(rng, f"j{i + 1}", kind, "standard", True, True)
+                   for i, kind in enumerate(("revolute", "prismatic", "revolute")))
+    links = tuple(Link(f"l{i + 1}", strategies.random_inertial(rng)) for i in range(3))
+    return Robot("ordinary3", joints, links)
+
+
+def test_auto_never_starts_a_derivation_and_a_module_appears_only_on_request(monkeypatch, tmp_path):
+    import json
+    import os
+    import subprocess
+    import sys
+
+    from armlab.control.joint_space import JointInverseDynamics
+    from armlab.references import Constant
+    from armlab.specialise import closed_form
+
+    robot = ordinary_arm()
+    assert robot.n <= closed_form.LAGRANGE_MAX_JOINTS        # the Lagrange generator's size
+    pickled = tmp_path / "robot.pickle"
+    pickled.write_bytes(pickle.dumps(robot))
+    cache = tmp_path / "cache"
+    env = dict(os.environ, ARMLAB_CACHE_DIR=str(cache))
+    done = subprocess.run([sys.executable, "-c", AUTO_PROGRAM, str(pickled)], capture_output=True,
+                          text=True, env=env, timeout=900)
+    assert done.returncode == 0, done.stderr[-2000:]
+    report = json.loads(done.stdout.strip().splitlines()[-1])
+    assert report == {"plant": "numeric", "controller_numeric": True, "sympy": []}
+    assert not list(cache.glob("**/*.py"))                   # nothing generated
+    # Asked for by name, a module is made (by the traced generator here: its cost is bounded,
+    # the derivation's is not), and from then on "auto" takes it.
+    monkeypatch.setenv("ARMLAB_CACHE_DIR", str(cache))
+    monkeypatch.setattr(closed_form, "LAGRANGE_MAX_JOINTS", 0)
+    run = {}
+    for dynamics in ("closed_form", "auto"):
+        monkeypatch.setattr(closed_form, "_OUTCOMES", {})     # each as a fresh process would
+        controller = JointInverseDynamics(robot, Constant(np.zeros(3)), 25.0, 10.0, dynamics=dynamics)
+        run[dynamics] = simulate(robot, controller, q0=np.zeros(3), t_final=0.01, dt=1e-3, dynamics=dynamics)
+        assert run[dynamics].meta["dynamics"] == "closed_form"
+        assert len(list((cache / "closed_form").glob("armlab_closed_form_*.py"))) == 1
+    np.testing.assert_array_equal(run["auto"].q, run["closed_form"].q)
+
+
+def test_a_module_that_disagrees_on_disk_is_refused_by_auto_and_removed(monkeypatch, tmp_path):
+    from armlab.specialise import closed_form
+
+    robot = armlab.load_robot("prp")
+    monkeypatch.setenv("ARMLAB_CACHE_DIR", str(tmp_path))
+    monkeypatch.setattr(closed_form, "_OUTCOMES", {})
+    module = closed_form_module(robot)                        # made in this cache folder
+    path = tmp_path / "closed_form" / f"{module.__name__}.py"
+    # The same module with a wrong inverse dynamics, as a stale or damaged file would be.
+    path.write_text(path.read_text().replace("tau_out[0] = ", "tau_out[0] = 1.0 + ", 1))
+    monkeypatch.setattr(closed_form, "_OUTCOMES", {})
+    assert closed_form.plant_kernels(robot, "auto")[0] == "numeric"
+    assert "inverse dynamics differ" in closed_form_status(robot)
+    assert not path.exists()

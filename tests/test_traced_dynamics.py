@@ -10,12 +10,12 @@ import pytest
 from hypothesis import given, settings
 
 import armlab
-from armlab.specialise import LAGRANGE_MAX_JOINTS, closed_form, closed_form_module
 from armlab.control.joint_space import JointInverseDynamics
 from armlab.kernels import dynamics as kernels
 from armlab.kernels.plant import pack_plant
 from armlab.references import ViaPoints
 from armlab.simulation import simulate
+from armlab.specialise import LAGRANGE_MAX_JOINTS, closed_form, closed_form_module
 from armlab.specialise.traced import TracedBranch, _objects, _Tape, _Tracer, traced_source
 from pinocchio_model import armlab_v, pinocchio_model, pinocchio_q, pinocchio_v
 from strategies import robots, without_actuators
