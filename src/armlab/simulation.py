@@ -40,7 +40,6 @@ import time
 
 import numpy as np
 
-from armlab.specialise import ClosedFormUnavailable, choice_problem, plant_kernels
 from armlab.control.base import Controller, Environment, ProtocolError, Signal
 from armlab.disturbances import encode_disturbances
 from armlab.dynamics import packed_copy
@@ -48,6 +47,7 @@ from armlab.errors import ArmlabError
 from armlab.kernels import integrators
 from armlab.kernels.integrators import no_environment_law
 from armlab.results import SimulationResult
+from armlab.specialise import ClosedFormUnavailable, choice_problem, plant_kernels
 
 STATUS = {1: "non-finite state", 2: "joint limit exceeded", 3: "runaway kinetic energy",
           4: "mass matrix not positive definite"}

@@ -12,7 +12,6 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit, types
 
-from armlab.specialise import ClosedFormUnavailable, choice_problem, inverse_dynamics_kernel
 from armlab.control.base import Controller, ProtocolError, Signal
 from armlab.dynamics import packed_copy
 from armlab.kernels.dynamics import gravity_into, make_workspace
@@ -20,6 +19,7 @@ from armlab.kernels.indirect import call_none, kernel_address
 from armlab.kernels.integrators import law_entry, law_views
 from armlab.model.robot import Robot
 from armlab.references import JointReference, reference_into
+from armlab.specialise import ClosedFormUnavailable, choice_problem, inverse_dynamics_kernel
 
 COMPENSATION = {"online": 0, "desired": 1, "none": 2}
 

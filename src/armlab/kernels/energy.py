@@ -1,8 +1,9 @@
 """Compiled kinetic and potential energy of a robot, rotors included (D6, D7).
 
 Used by the energy-conservation checks of the simulator and by ``armlab.kinetic_energy`` /
-``armlab.potential_energy``, inlined into those entries (small); they share the joint-frame recursion conventions of
-``armlab.kernels.dynamics`` (scratch space from its ``DynamicsWorkspace``).
+``armlab.potential_energy``, inlined into those entries (they are small); they share the
+joint-frame recursion conventions of ``armlab.kernels.dynamics`` (scratch space from its
+``DynamicsWorkspace``).
 """
 
 from __future__ import annotations

@@ -46,7 +46,6 @@ from pathlib import Path
 
 import numpy as np
 
-from armlab.specialise import choice_problem
 from armlab.control.adaptive import SlotineLi, SlotineLi1DoF
 from armlab.control.joint_space import JointInverseDynamics, JointPDGravity
 from armlab.disturbances import DISTURBANCE_TYPES
@@ -54,6 +53,7 @@ from armlab.errors import ArmlabError
 from armlab.model.robot import Robot
 from armlab.model.toml_io import evaluate_expression
 from armlab.references import REFERENCE_TYPES
+from armlab.specialise import choice_problem
 
 CONTROLLERS = {"joint_pd_gravity": JointPDGravity, "joint_inverse_dynamics": JointInverseDynamics,
                "slotine_li_1dof": SlotineLi1DoF, "slotine_li": SlotineLi}

@@ -222,7 +222,8 @@ def closed_form_torque(robot: Robot | SymbolicRobot):
 
     B q̈ + C q̇ + g is one SymPy vector, lambdified with common subexpressions, so the compiled
     code is the scalar arithmetic a person would write by hand (no matrices are filled).
-    It allocates nothing and can be called from other compiled loops.  q, qd, qdd, tau_out (n,) [m | rad, /s, /s², N | N·m].
+    It allocates nothing and can be called from other compiled loops.  q, qd, qdd, tau_out (n,)
+    [m | rad, /s, /s², N | N·m].
     """
     sr = robot if isinstance(robot, SymbolicRobot) else symbolic_robot(robot, numeric=True)
     values = sr.numeric_substitution()
