@@ -46,15 +46,16 @@ import numpy as np
 from numba import njit, types
 
 from armlab.errors import ArmlabError
-from armlab.kernels.dynamics import (
-    FASTMATH,
-    coriolis_matrix_into,
-    forward_dynamics_inline,
-    mass_matrix_inline,
-    rnea_inline,
+from armlab.kernels.dynamics import FASTMATH, coriolis_matrix_into, mass_matrix_inline, rnea_into
+from armlab.kernels.energy import potential_energy_kernel
+from armlab.kernels.plant import (
+    forward_dynamics_packed,
+    inverse_dynamics_packed,
+    kinetic_energy_packed,
+    pack_plant,
+    unpack_plant,
+    zero_wrench,
 )
-from armlab.kernels.energy import kinetic_energy_kernel, potential_energy_kernel
-from armlab.kernels.plant import pack_plant, unpack_plant, zero_wrench
 from armlab.model.robot import Robot
 from armlab.specialise import DYNAMICS_CHOICES, chosen_module
 
@@ -76,7 +77,7 @@ class DynamicsData:
     Reusable by any sequence of calls for that robot, by one thread at a time.
     """
 
-    __slots__ = ("robot", "n", "square", "packed", "zero_wrench", "entries")
+    __slots__ = ("robot", "n", "square", "packed", "zero_wrench", "rest", "entries")
 
     def __init__(self, robot: Robot):
         if not isinstance(robot, Robot):
@@ -86,6 +87,7 @@ class DynamicsData:
         self.square = (robot.n, robot.n)
         self.packed = pack_plant(robot.arrays)
         self.zero_wrench = zero_wrench(self.packed)
+        self.rest = np.zeros(robot.n)             # q̇ = q̈ = 0 (never written)
         self.entries: dict = {NUMERIC: _ENTRIES}
 
     def __reduce__(self):
@@ -126,14 +128,16 @@ def packed_copy(robot: Robot) -> np.ndarray:
 
 
 # ---------------------------------------------------------------------------- compiled entries
-# Each returns a status: 0 done, 1 a vector of the wrong length (nothing written).
+# Each returns a status: 0 done, 1 a vector of the wrong length (nothing written).  They call
+# the plant kernels the simulator compiles too (one compile serves both) and inline only the
+# CRBA, whose call the inertia matrix of a small arm would feel.
 
 def _free_motion_entry(packed, q, qd, qdd, tau_out):
-    """The common call, with gravity and without a wrench: two arguments fewer to unbox."""
-    n, m, ws, _ = unpack_plant(packed)
+    """The common call, with gravity and without a wrench (also g(q) = τ(q, 0, 0))."""
+    n = int(packed[0])
     if q.shape[0] != n or qd.shape[0] != n or qdd.shape[0] != n:
         return 1
-    rnea_inline(m, ws, q, qd, qdd, 1.0, None, tau_out)
+    inverse_dynamics_packed(packed, q, qd, qdd, tau_out)
     return 0
 
 
@@ -141,7 +145,7 @@ def _inverse_dynamics_entry(packed, q, qd, qdd, gravity_scale, h_e, tau_out):
     n, m, ws, _ = unpack_plant(packed)
     if q.shape[0] != n or qd.shape[0] != n or qdd.shape[0] != n or h_e.shape[0] != 6:
         return 1
-    rnea_inline(m, ws, q, qd, qdd, gravity_scale, h_e, tau_out)
+    rnea_into(m, ws, q, qd, qdd, gravity_scale, h_e, tau_out)
     return 0
 
 
@@ -153,36 +157,12 @@ def _mass_matrix_entry(packed, q, B_out):
     return 0
 
 
-def _gravity_entry(packed, q, g_out):
-    n, m, ws, _ = unpack_plant(packed)
-    if q.shape[0] != n:
-        return 1
-    rnea_inline(m, ws, q, ws.zero, ws.zero, 1.0, None, g_out)
-    return 0
-
-
 def _coriolis_entry(packed, q, qd, C_out):
     n, m, ws, _ = unpack_plant(packed)
     if q.shape[0] != n or qd.shape[0] != n:
         return 1
     coriolis_matrix_into(m, ws, q, qd, C_out)
     return 0
-
-
-def _forward_dynamics_entry(packed, q, qd, tau, h_e, qdd_out):
-    """2: B is not positive definite."""
-    n, m, ws, _ = unpack_plant(packed)
-    if q.shape[0] != n or qd.shape[0] != n or tau.shape[0] != n or h_e.shape[0] != 6:
-        return 1
-    return 0 if forward_dynamics_inline(m, ws, q, qd, tau, h_e, qdd_out) else 2
-
-
-def _kinetic_energy_entry(packed, q, qd):
-    """T, or NaN for a vector of the wrong length."""
-    n, m, ws, _ = unpack_plant(packed)
-    if q.shape[0] != n or qd.shape[0] != n:
-        return np.nan
-    return kinetic_energy_kernel(m, ws, q, qd)
 
 
 def _potential_energy_entry(packed, q):
@@ -208,7 +188,8 @@ def _one_signature(function, *argtypes):
 
 class _Entries:
     """The numeric kernels' entries, each made at its first use (a dispatcher with a signature
-    compiles at once; importing armlab compiles nothing)."""
+    compiles at once; importing armlab compiles nothing).  The forward dynamics and kinetic
+    energy are the plant kernels themselves (they check lengths already)."""
 
     @functools.cached_property
     def free_motion(self):
@@ -223,20 +204,16 @@ class _Entries:
         return _one_signature(_mass_matrix_entry, _V, _V, _M)
 
     @functools.cached_property
-    def gravity(self):
-        return _one_signature(_gravity_entry, _V, _V, _V)
-
-    @functools.cached_property
     def coriolis(self):
         return _one_signature(_coriolis_entry, _V, _V, _V, _M)
 
     @functools.cached_property
     def forward_dynamics(self):
-        return _one_signature(_forward_dynamics_entry, _V, _V, _V, _V, _V, _V)
+        return _one_signature(forward_dynamics_packed, _V, _V, _V, _V, _V, _V)
 
     @functools.cached_property
     def kinetic_energy(self):
-        return _one_signature(_kinetic_energy_entry, _V, _V, _V)
+        return _one_signature(kinetic_energy_packed, _V, _V, _V)
 
     @functools.cached_property
     def potential_energy(self):
@@ -407,13 +384,14 @@ def gravity_torque(robot: Robot, q, data: DynamicsData | None = None) -> np.ndar
     elif type(data) is not DynamicsData or data.robot is not robot:
         _refuse_data(robot, data)
     g = _empty(data.n)
+    rest = data.rest                          # g(q) = τ(q, q̇ = 0, q̈ = 0)
     if type(q) is _ND and q.dtype is _F64:
         try:
-            if not _ENTRIES.gravity(data.packed, q, g):
+            if not _ENTRIES.free_motion(data.packed, q, rest, rest, g):
                 return g
         except _FALLBACK:
             pass
-    _ENTRIES.gravity(data.packed, _vector(robot, q, "q"), g)
+    _ENTRIES.free_motion(data.packed, _vector(robot, q, "q"), rest, rest, g)
     return g
 
 
