@@ -3,7 +3,7 @@
 * **Per call from Python, one state**: ``armlab.inverse_dynamics`` / ``inertia_matrix`` /
   ``forward_dynamics`` vs ``pinocchio.rnea`` / ``crba`` / ``aba``; armlab twice, with its
   general kernels (the default) and with the robot's generated module
-  (``dynamics="closed_form"``, ``armlab.closed_form``), each checked against Pinocchio first.
+  (``dynamics="closed_form"``, ``armlab.specialise``), each checked against Pinocchio first.
 * **Batched**: many states in one call — armlab's kernels inlined into a compiled loop (what
   a simulation does) vs Pinocchio called in a Python loop (its Python API has no batch call).
 * **PRP inverse dynamics inside compiled code**: nanoseconds per evaluation in a compiled loop

@@ -1,4 +1,4 @@
-"""Robot-specialised closed-form dynamics (armlab.closed_form) against the numeric kernels, and
+"""Robot-specialised closed-form dynamics (armlab.specialise) against the numeric kernels, and
 its use by the simulator and the computed-torque controller."""
 
 import pickle
@@ -8,11 +8,11 @@ import numpy as np
 import pytest
 
 import armlab
-from armlab.closed_form import ClosedFormUnavailable, closed_form_module, closed_form_status
 from armlab.control.base import ProtocolError
 from armlab.kernels.plant import pack_plant
 from armlab.scenarios import load_scenario
 from armlab.simulation import SimulationError, simulate
+from armlab.specialise import ClosedFormUnavailable, closed_form_module, closed_form_status, robot_key
 from armlab.symbolic.energy import inertia_matrix
 from armlab.symbolic.model import symbolic_robot
 
@@ -76,28 +76,40 @@ def test_the_wrench_term_of_the_closed_form_in_a_contact_run():
 
 def test_auto_uses_the_generated_dynamics_for_small_and_large_robots():
     prp, puma = armlab.load_robot("prp"), armlab.load_robot("puma560")
+    for robot in (prp, puma):
+        closed_form_module(robot)           # "auto" uses a module made on request earlier
     pd = armlab.control.joint_space.JointPDGravity
     reference = armlab.references.Constant
     small = simulate(prp, pd(prp, reference(np.zeros(3)), 10.0, 2.0), q0=np.zeros(3), t_final=0.01,
                      dt=1e-3)
     large = simulate(puma, pd(puma, reference(np.zeros(6)), 10.0, 2.0), q0=np.zeros(6), t_final=0.01,
                      dt=1e-3)
-    # Lagrange's closed form for the PRP, the traced kernels (armlab.traced) for the Puma.
+    # Lagrange's closed form for the PRP, the traced kernels (armlab.specialise.traced) for the Puma.
     assert small.meta["dynamics"] == "closed_form" and large.meta["dynamics"] == "closed_form"
     assert "armlab.symbolic" in closed_form_module(prp).__doc__
-    assert "armlab.traced" in closed_form_module(puma).__doc__
+    assert "armlab.specialise.traced" in closed_form_module(puma).__doc__
 
 
-def test_auto_leaves_robots_beyond_its_size_to_the_numeric_kernels(monkeypatch):
-    from armlab import closed_form
+def test_auto_leaves_robots_without_a_module_on_disk_to_the_numeric_kernels(monkeypatch, tmp_path):
+    from armlab import specialise
 
     puma = armlab.load_robot("puma560")
-    monkeypatch.setattr(closed_form, "AUTO_MAX_JOINTS", puma.n - 1)
-    assert closed_form.plant_kernels(puma, "auto")[0] == "numeric"
-    assert closed_form.plant_kernels(puma, "closed_form")[0] == "closed_form"  # asked for by name
+    specialise.closed_form_module(puma)
+    module = specialise.closed_form.cache_dir() / "closed_form" / f"armlab_closed_form_{robot_key(puma)}.py"
+    assert module.is_file()
+    # Another cache folder, as a fresh machine has, and a process that has not met the Puma.
+    monkeypatch.setenv("ARMLAB_CACHE_DIR", str(tmp_path))
+    monkeypatch.setattr(specialise.closed_form, "_OUTCOMES", {})
+    assert specialise.plant_kernels(puma, "auto")[0] == "numeric"
+    assert not (tmp_path / "closed_form").exists()                        # nothing was made
+    # Back on this machine's cache: the module on disk is found (and checked) again.
+    monkeypatch.setenv("ARMLAB_CACHE_DIR", str(module.parents[1]))
+    assert specialise.plant_kernels(puma, "auto")[0] == "closed_form"
 
 
-def test_bad_choices_and_unavailable_closed_forms_are_named():
+def test_bad_choices_and_unavailable_closed_forms_are_named(monkeypatch):
+    from armlab import specialise
+
     scenario = load_scenario("a7_id_via_points")
     with pytest.raises(SimulationError, match="dynamics: 'fast'"):
         simulate(scenario.plant, scenario.controller, q0=np.zeros(3), t_final=0.01, dt=1e-3,
@@ -107,7 +119,7 @@ def test_bad_choices_and_unavailable_closed_forms_are_named():
     robot = armlab.load_robot("prp")
     # A robot whose closed form disagrees with its kernels is refused, with the reason kept.
     broken = robot.replace(links=robot.links)
-    broken.__dict__["_closed_form_module"] = (False, "inverse dynamics differ (test)")
+    monkeypatch.setitem(specialise.closed_form._OUTCOMES, robot_key(broken), "inverse dynamics differ (test)")
     with pytest.raises(ClosedFormUnavailable, match="differ"):
         closed_form_module(broken)
     assert closed_form_status(broken) == "inverse dynamics differ (test)"
@@ -126,12 +138,12 @@ def test_a_robot_with_a_closed_form_still_pickles():
 
 
 def test_a_pickled_robot_finds_its_closed_form_in_a_fresh_process(monkeypatch):
-    import armlab.closed_form as cf
+    import armlab.specialise.closed_form as cf
 
     robot = armlab.load_robot("prp")
     module = closed_form_module(robot)
     copy = pickle.loads(pickle.dumps(robot))
-    monkeypatch.setattr(cf, "_MODULES", {})           # what another process starts with
+    monkeypatch.setattr(cf, "_OUTCOMES", {})          # what another process starts with
     assert closed_form_module(copy).__name__ == module.__name__
 
 
@@ -215,11 +227,96 @@ def test_a_robot_keeps_its_generated_entries_out_of_pickles():
     np.testing.assert_array_equal(armlab.inertia_matrix(copy, q, dynamics="closed_form"), B)
 
 
-def test_auto_beyond_its_size_calls_the_kernels(monkeypatch):
-    from armlab import closed_form
+def test_auto_without_a_module_on_disk_calls_the_kernels(monkeypatch, tmp_path):
+    from armlab import specialise
 
     puma = armlab.load_robot("puma560")
-    monkeypatch.setattr(closed_form, "AUTO_MAX_JOINTS", puma.n - 1)
+    monkeypatch.setenv("ARMLAB_CACHE_DIR", str(tmp_path))
+    monkeypatch.setattr(specialise.closed_form, "_OUTCOMES", {})
     q, qd, tau = np.full(6, 0.3), np.full(6, -0.2), np.ones(6)
     np.testing.assert_array_equal(armlab.forward_dynamics(puma, q, qd, tau, dynamics="auto"),
                                   armlab.forward_dynamics(puma, q, qd, tau))
+
+
+# What "auto" does for an arm nobody asked a closed form for: a 3-joint arm with ordinary
+# (random, non-round) numbers, whose Lagrange derivation can take many minutes.
+AUTO_PROGRAM = """
+import json, pickle, sys
+import numpy as np
+from armlab.control.joint_space import JointInverseDynamics
+from armlab.kernels.plant import inverse_dynamics_packed
+from armlab.references import Constant
+from armlab.simulation import simulate
+from armlab.specialise import inverse_dynamics_kernel
+with open(sys.argv[1], "rb") as stream:
+    robot = pickle.load(stream)
+controller = JointInverseDynamics(robot, Constant(np.zeros(3)), 25.0, 10.0)
+result = simulate(robot, controller, q0=np.zeros(3), t_final=0.01, dt=1e-3)
+print(json.dumps({"plant": result.meta["dynamics"],
+                  "controller_numeric": inverse_dynamics_kernel(robot) is inverse_dynamics_packed,
+                  "sympy": sorted(m for m in sys.modules if m.split(".")[0] == "sympy")[:3]}))
+"""
+
+
+def ordinary_arm(seed: int = 3):
+    """A revolute–prismatic–revolute arm with random DH numbers, motors and friction."""
+    import strategies
+    from armlab.model.robot import Link, Robot
+
+    rng = np.random.default_rng(seed)
+    joints = tuple(strategies._joint(rng, f"j{i + 1}", kind, "standard", True, True)
+                   for i, kind in enumerate(("revolute", "prismatic", "revolute")))
+    links = tuple(Link(f"l{i + 1}", strategies.random_inertial(rng)) for i in range(3))
+    return Robot("ordinary3", joints, links)
+
+
+def test_auto_never_starts_a_derivation_and_a_module_appears_only_on_request(monkeypatch, tmp_path):
+    import json
+    import os
+    import subprocess
+    import sys
+
+    from armlab.control.joint_space import JointInverseDynamics
+    from armlab.references import Constant
+    from armlab.specialise import closed_form
+
+    robot = ordinary_arm()
+    assert robot.n <= closed_form.LAGRANGE_MAX_JOINTS        # the Lagrange generator's size
+    pickled = tmp_path / "robot.pickle"
+    pickled.write_bytes(pickle.dumps(robot))
+    cache = tmp_path / "cache"
+    env = dict(os.environ, ARMLAB_CACHE_DIR=str(cache))
+    done = subprocess.run([sys.executable, "-c", AUTO_PROGRAM, str(pickled)], capture_output=True,
+                          text=True, env=env, timeout=900)
+    assert done.returncode == 0, done.stderr[-2000:]
+    report = json.loads(done.stdout.strip().splitlines()[-1])
+    assert report == {"plant": "numeric", "controller_numeric": True, "sympy": []}
+    assert not list(cache.glob("**/*.py"))                   # nothing generated
+    # Asked for by name, a module is made (by the traced generator here: its cost is bounded,
+    # the derivation's is not), and from then on "auto" takes it.
+    monkeypatch.setenv("ARMLAB_CACHE_DIR", str(cache))
+    monkeypatch.setattr(closed_form, "LAGRANGE_MAX_JOINTS", 0)
+    run = {}
+    for dynamics in ("closed_form", "auto"):
+        monkeypatch.setattr(closed_form, "_OUTCOMES", {})     # each as a fresh process would
+        controller = JointInverseDynamics(robot, Constant(np.zeros(3)), 25.0, 10.0, dynamics=dynamics)
+        run[dynamics] = simulate(robot, controller, q0=np.zeros(3), t_final=0.01, dt=1e-3, dynamics=dynamics)
+        assert run[dynamics].meta["dynamics"] == "closed_form"
+        assert len(list((cache / "closed_form").glob("armlab_closed_form_*.py"))) == 1
+    np.testing.assert_array_equal(run["auto"].q, run["closed_form"].q)
+
+
+def test_a_module_that_disagrees_on_disk_is_refused_by_auto_and_removed(monkeypatch, tmp_path):
+    from armlab.specialise import closed_form
+
+    robot = armlab.load_robot("prp")
+    monkeypatch.setenv("ARMLAB_CACHE_DIR", str(tmp_path))
+    monkeypatch.setattr(closed_form, "_OUTCOMES", {})
+    module = closed_form_module(robot)                        # made in this cache folder
+    path = tmp_path / "closed_form" / f"{module.__name__}.py"
+    # The same module with a wrong inverse dynamics, as a stale or damaged file would be.
+    path.write_text(path.read_text().replace("tau_out[0] = ", "tau_out[0] = 1.0 + ", 1))
+    monkeypatch.setattr(closed_form, "_OUTCOMES", {})
+    assert closed_form.plant_kernels(robot, "auto")[0] == "numeric"
+    assert "inverse dynamics differ" in closed_form_status(robot)
+    assert not path.exists()

@@ -7,13 +7,13 @@ from numba import njit, typeof, types
 import armlab
 from armlab.kernels import integrators
 from armlab.kernels.indirect import (
-    borrowed,
     call_float,
     call_int,
     call_none,
     kernel_address,
     stack_address,
 )
+from armlab.kernels.packed import borrowed
 from armlab.kernels.plant import forward_dynamics_packed, kinetic_energy_packed, pack_plant
 
 VEC = types.float64[::1]

@@ -271,7 +271,7 @@ def _apply_limits(robot, solutions, target, respect_limits):
 # ------------------------------------------------------------------- damped least squares (K8)
 
 
-@njit(cache=True, _nrt=False)
+@njit(cache=True)
 def _residual_into(m, q, R_des, p_des, full_pose, ws, e):
     """e = [p_des − p_e; log(R_des R_eᵀ)] (or zeros in the last 3) in Σ_0; returns ½|e|²."""
     n = q.shape[0]
@@ -289,7 +289,7 @@ def _residual_into(m, q, R_des, p_des, full_pose, ws, e):
     return 0.5 * cost
 
 
-@njit(cache=True, _nrt=False)
+@njit(cache=True)
 def dls_kernel(m, R_des, p_des, full_pose, q_min, q_max, q, max_iter, tol, damping, ws, A, dq,
                q_try, e, e_try):
     """Levenberg–Marquardt inverse kinematics from ``q`` (n,), updated in place (K8).

@@ -34,17 +34,16 @@ _VEC = types.float64[::1]
 def dynamics_kernels(robots: list[Robot]) -> None:
     """Compile the dynamics kernels and the closed forms of ``robots`` (see the module)."""
     from armlab import dynamics
-    from armlab.closed_form import AUTO_MAX_JOINTS, ClosedFormUnavailable, closed_form_module
     from armlab.kernels import dynamics as kernels
     from armlab.kernels.indirect import kernel_address
     from armlab.kernels.plant import forward_dynamics_packed, inverse_dynamics_packed, kinetic_energy_packed
+    from armlab.specialise import ClosedFormUnavailable, closed_form_module
 
     for robot in robots:
-        if robot.n <= AUTO_MAX_JOINTS:
-            try:
-                closed_form_module(robot)  # derivation, compile and check against the RNEA
-            except ClosedFormUnavailable:
-                pass  # the simulation falls back to the numeric kernels compiled below
+        try:
+            closed_form_module(robot)  # derivation, compile and check against the RNEA
+        except ClosedFormUnavailable:
+            pass  # the simulation falls back to the numeric kernels compiled below
     robot = robots[0]
     n = robot.n
     m, ws = robot.arrays, kernels.make_workspace(n)

@@ -37,9 +37,7 @@ class ReferenceSpecError(ArmlabError, ValueError):
     """A reference whose numbers cannot describe a trajectory (names the field)."""
 
 
-# Allocation-free compiled code runs without reference counting (``_nrt=False``): with it,
-# every array taken out of a parameter tuple costs an atomic increment and decrement.
-kernel = njit(cache=True, _nrt=False)
+kernel = njit(cache=True)
 
 
 @kernel

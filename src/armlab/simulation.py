@@ -40,7 +40,6 @@ import time
 
 import numpy as np
 
-from armlab.closed_form import ClosedFormUnavailable, choice_problem, plant_kernels
 from armlab.control.base import Controller, Environment, ProtocolError, Signal
 from armlab.disturbances import encode_disturbances
 from armlab.dynamics import packed_copy
@@ -48,6 +47,7 @@ from armlab.errors import ArmlabError
 from armlab.kernels import integrators
 from armlab.kernels.environment import FreeSpaceParams, free_space_law
 from armlab.results import SimulationResult
+from armlab.specialise import ClosedFormUnavailable, choice_problem, plant_kernels
 
 STATUS = {1: "non-finite state", 2: "joint limit exceeded", 3: "runaway kinetic energy",
           4: "mass matrix not positive definite"}
@@ -78,18 +78,12 @@ def _per_joint(value, n: int, field: str, default: float) -> np.ndarray:
 
 def _divergence_limits(plant, limit_margin: float) -> tuple[np.ndarray, np.ndarray]:
     """(q_lo, q_hi): the joint limits widened by ``limit_margin`` of their span (±∞ where a
-    joint has none).  Kept by the plant per margin: every run shares them (the loop only reads
-    them; they stay writeable, the type the compiled loop was built for)."""
-    known = plant.__dict__.setdefault("_divergence_limits", {})
-    limits = known.get(limit_margin)
-    if limits is None:
-        arrays = plant.arrays
-        span = arrays.q_max - arrays.q_min
-        margin = np.where(np.isfinite(span), limit_margin * span, np.inf)
-        limits = (np.where(np.isfinite(arrays.q_min), arrays.q_min - margin, -np.inf),
-                  np.where(np.isfinite(arrays.q_max), arrays.q_max + margin, np.inf))
-        known[limit_margin] = limits
-    return limits
+    joint has none); new writeable arrays, the type the compiled loop was built for (~10 µs)."""
+    arrays = plant.arrays
+    span = arrays.q_max - arrays.q_min
+    margin = np.where(np.isfinite(span), limit_margin * span, np.inf)
+    return (np.where(np.isfinite(arrays.q_min), arrays.q_min - margin, -np.inf),
+            np.where(np.isfinite(arrays.q_max), arrays.q_max + margin, np.inf))
 
 
 def _steps(span: float, dt: float, field: str) -> int:
@@ -309,10 +303,10 @@ def simulate(plant, controller, *, q0, qd0=None, t_final, dt, method="rk4", cont
     limit_margin : a joint further than this fraction of its range outside its limits diverges.
     max_kinetic_energy : [J] bound of ½ q̇ᵀ B q̇ (checked every 10 steps).
     on_divergence : "raise" (``SimulationDiverged`` with ``.result``) or "return".
-    dynamics : the plant's forward dynamics: "auto" (its generated closed form — Lagrange for
-        up to 3 joints, the traced kernels beyond — when it has at most
-        ``armlab.closed_form.AUTO_MAX_JOINTS`` joints, else the RNEA/CRBA kernels),
-        "closed_form" or "numeric" (``armlab.closed_form``).
+    dynamics : the plant's forward dynamics: "auto" (the robot's generated closed form if one
+        is on disk already — made by an earlier "closed_form" request — else at once the
+        RNEA/CRBA kernels), "closed_form" (made now if needed: Lagrange for up to 3 joints, the
+        traced kernels beyond) or "numeric" (``armlab.specialise``).
     meta : extra JSON-able entries for ``result.meta`` (scenario name, …).
     """
     if method not in ("rk4", "adaptive"):

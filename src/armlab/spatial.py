@@ -29,9 +29,8 @@ EULER_CODES = {"zyz": ZYZ, "rpy": RPY}
 # |sin ϑ| (ZYZ) or |cos ϑ| (RPY) below this: the angles are at a representation singularity.
 EULER_SINGULAR_EPS = 1e-12
 
-# The compiled functions never allocate, so they run without reference counting (as the
-# dynamics kernels do); division by zero gives inf/nan instead of raising.
-compiled = njit(cache=True, error_model="numpy", _nrt=False)
+# Division by zero gives inf/nan instead of raising.
+compiled = njit(cache=True, error_model="numpy")
 
 
 class RepresentationSingularityError(ArmlabError, ValueError):

@@ -76,7 +76,7 @@ It is written once next to the law, always the same three lines::
         pd_law(t, q, qd, z, h_e, borrowed(cp[0]), tau_out, zdot_out, signals_out)
 
 so that the law is compiled inlined into the loop's call (~10% of a small robot's run).
-``borrowed`` (``armlab.kernels.indirect``) tells numba that the arrays it hands over need no
+``borrowed`` (``armlab.kernels.packed``) tells numba that the arrays it hands over need no
 reference counting (the simulation keeps them alive): without it, the refcount code around
 every array the law takes out of ``params`` costs more than a small robot's law itself.
 Without it (``entry = None``), or when the class's ``law`` is not the law the entry was made
@@ -138,6 +138,7 @@ measurement.
 from __future__ import annotations
 
 import abc
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -179,16 +180,18 @@ class Signal:
         ``kind``: "position" / "error" (m | rad), "velocity" (m/s | rad/s), "acceleration"
         (m/s² | rad/s²) or "effort" (N | N·m).
         """
-        # Signals are immutable and every simulation asks for a dozen: the robot keeps them.
-        known = robot.__dict__.setdefault("_joint_signals", {})
-        signal = known.get((cls, name, kind))
-        if signal is None:
-            if kind not in _JOINT_UNITS:
-                raise ProtocolError(f"signal {name}: unknown kind {kind!r} (use {', '.join(_JOINT_UNITS)})")
-            prismatic, revolute = _JOINT_UNITS[kind]
-            units = [prismatic if j.kind == "prismatic" else revolute for j in robot.joints]
-            signal = known[(cls, name, kind)] = cls(name, tuple(robot.joint_names), tuple(units))
-        return signal
+        return _joint_signal(cls, name, tuple([(j.name, j.kind) for j in robot.joints]), kind)
+
+
+# Signals are immutable and every simulation asks for a dozen (~5 µs each to build): kept by
+# what they are made of, the joints' names and kinds.
+@functools.lru_cache(maxsize=1024)
+def _joint_signal(cls, name: str, joints: tuple, kind: str) -> Signal:
+    if kind not in _JOINT_UNITS:
+        raise ProtocolError(f"signal {name}: unknown kind {kind!r} (use {', '.join(_JOINT_UNITS)})")
+    prismatic, revolute = _JOINT_UNITS[kind]
+    return cls(name, tuple([label for label, _ in joints]),
+               tuple([prismatic if joint_kind == "prismatic" else revolute for _, joint_kind in joints]))
 
 
 @dataclass(frozen=True)

@@ -13,15 +13,16 @@ from typing import Literal, NamedTuple
 import numpy as np
 from numba import njit, types
 
-from armlab.closed_form import ClosedFormUnavailable, choice_problem, inverse_dynamics_kernel
 from armlab.control.base import Controller, ProtocolError, Signal
 from armlab.dynamics import packed_copy
 from armlab.kernels.dynamics import DynamicsWorkspace, gravity_into, make_workspace
-from armlab.kernels.indirect import borrowed, call_none, kernel_address
+from armlab.kernels.indirect import call_none, kernel_address
 from armlab.kernels.integrators import law_entry, law_views
+from armlab.kernels.packed import borrowed
 from armlab.model.robot import Robot, RobotArrays
 from armlab.references import JointReference, reference_into
 from armlab.registry import scenario_type
+from armlab.specialise import ClosedFormUnavailable, choice_problem, inverse_dynamics_kernel
 
 COMPENSATION = {"online": 0, "desired": 1, "none": 2}
 
@@ -189,7 +190,7 @@ def joint_inverse_dynamics_law(t, q, qd, z, h_e, params, tau_out, zdot_out, sign
                 acc += kd[i, j] * (qd_des[j] - qd[j]) + kp[i, j] * (q_des[j] - q[j])
         y[i] = acc
     # B̂ y + n̂ is exactly the model's inverse dynamics at q̈ = y (no B): the model's closed
-    # form or its RNEA, whichever ``dynamics`` chose (armlab.closed_form).
+    # form or its RNEA, whichever ``dynamics`` chose (armlab.specialise).
     call_none(inverse_dynamics, (model, q, qd, y, tau_out))
     for i in range(n):
         signals_out[i] = q_des[i]
@@ -224,7 +225,7 @@ class JointInverseDynamics(Controller):
     mis-compensated.  h_e is not compensated (free-space control).
 
     B̂ y + n̂ is evaluated as the model's inverse dynamics at q̈ = y, by its closed form or its
-    RNEA as ``dynamics`` says ("auto", "closed_form" or "numeric", see ``armlab.closed_form``).
+    RNEA as ``dynamics`` says ("auto", "closed_form" or "numeric", see ``armlab.specialise``).
 
     Signals: ``q_des``, ``q_err``, ``qd_err``, ``y`` (the outer-loop acceleration).
     """

@@ -4,15 +4,16 @@ Every kernel takes the robot's :class:`~armlab.model.robot.RobotArrays` ``m`` an
 workspace ``ws`` from :func:`make_workspace` (``armlab.kernels.workspace``, re-exported here;
 nothing is allocated inside a call), writes
 into a caller-provided output and returns nothing (or the value named below).  All are
-``@njit(cache=True)``, compiled without reference counting (they never allocate), and can be
-called from other compiled code.  Every kernel writes the scratch it reads, so a workspace can
-be reused by any sequence of calls; it must not be shared by two threads at once.
+``@njit(cache=True)`` and can be called from other compiled code.  Every kernel writes the
+scratch it reads, so a workspace can be reused by any sequence of calls; it must not be shared
+by two threads at once.
 
 Published API (n = number of joints; float64 arrays)::
 
     make_workspace(n) -> DynamicsWorkspace                       # Python or compiled
     workspace_size(n), workspace_from_buffer(buf, n)             # the same, over a caller's buffer
-    rnea_into(m, ws, q, qd, qdd, gravity_scale, h_e, tau_out)    # τ of (D1), all terms
+    rnea_into(m, ws, q, qd, qdd, gravity_scale, h_e, tau_out)    # τ of (D1), all terms (h_e: (6,)
+                                                                 #   or None for free motion)
     mass_matrix_into(m, ws, q, B_out)                            # B(q), (n, n), CRBA (D2)
     gravity_into(m, ws, q, g_out)                                # g(q), (n,)
     bias_into(m, ws, q, qd, h_e, out)                            # C q̇ + F_v q̇ + F_s sgn q̇ + g + Jᵀh_e
@@ -23,12 +24,13 @@ Published API (n = number of joints; float64 arrays)::
 
 The energies (D6, D7) are in ``armlab.kernels.energy`` (same arguments).
 
-``rnea_inline``, ``mass_matrix_inline`` and ``forward_dynamics_inline`` are the same kernels
-inlined into their caller: a call to a compiled kernel passes ``m`` and ``ws`` flattened, ~300
-machine words, which cost a 3-joint CRBA 55 of its 140 ns.  The ``*_into`` kernels are the
-same code behind one call.  Each inlined copy is compiled anew (the RNEA's takes seconds), so
-they are used where the call matters: the Python entry of B(q) and the forward dynamics of the
-simulation loop.
+``rnea_inline``, ``mass_matrix_inline`` and ``forward_dynamics_inline`` are the
+implementations, inlined into their caller; the ``*_into`` kernels are each one of them behind
+one call.  A call passes ``m`` and ``ws`` flattened, ~300 machine words, and under numba's
+reference counting the callee counts its ~35 arrays in and out: ~0.25 µs, more than a 3-joint
+RNEA.  Each inlined copy is compiled anew (the RNEA's takes ~5 s, once per machine), so the
+entries that run often inline them (the packed-robot kernels of ``armlab.kernels.plant`` and
+the Python entries of ``armlab.dynamics``) and the rest call.
 
 Arguments: q, qd, qdd, tau (n,) [m | rad, /s, /s², N | N·m]; ``h_e`` (6,) = [f_e; μ_e], the
 wrench the end effector exerts on the environment, in Σ_0, μ_e about the origin of Σ_e
@@ -60,12 +62,8 @@ from armlab.kernels.workspace import DynamicsWorkspace as DynamicsWorkspace  # r
 from armlab.kernels.workspace import make_workspace as make_workspace
 from armlab.kernels.workspace import workspace_from_buffer as workspace_from_buffer
 from armlab.kernels.workspace import workspace_size as workspace_size
-from armlab.model.robot import PRISMATIC
+from armlab.model.robot import PRISMATIC, RobotArrays
 
-# The kernels never allocate, so they run without reference counting: with it, every array
-# taken out of ``m`` or ``ws`` and every row view costs an atomic increment/decrement pair,
-# which made the 3-joint RNEA ~20× slower than its arithmetic.
-#
 # One fast-math liberty, "contract": a multiply followed by an add may become one fused
 # multiply-add (one rounding instead of two, so never less accurate), which shortens the
 # dependency chains of the recursions (a PRP CRBA 70 → 59 ns).  No reassociation, and NaN and
@@ -73,9 +71,9 @@ from armlab.model.robot import PRISMATIC
 # Code inlined into another function is compiled with that function's flags: compiled entries
 # elsewhere (armlab.dynamics) that inline these kernels pass FASTMATH too.
 FASTMATH = {"contract"}
-kernel = njit(cache=True, _nrt=False, fastmath=FASTMATH)
+kernel = njit(cache=True, fastmath=FASTMATH)
 # Small helpers are inlined: a call passes m and ws flattened (~300 machine words).
-small_kernel = njit(cache=True, _nrt=False, inline="always", fastmath=FASTMATH)
+small_kernel = njit(cache=True, inline="always", fastmath=FASTMATH)
 
 
 @small_kernel
@@ -99,14 +97,24 @@ def local_transforms_into(m, q, R, p):
 
 
 @small_kernel
-def _rnea_body(m, ws, q, qd, qdd, gravity_scale, h_e, with_wrench, with_friction, tau_out):
-    """Newton–Euler recursion (Siciliano §7.5) in joint frames; transforms already in ws.
+def _has_wrench(h_e):
+    for k in range(6):
+        if h_e[k] != 0.0:
+            return True
+    return False
 
-    Inlined into ``rnea_into`` (one call less per evaluation: a call passes m and ws
-    flattened, ~300 machine words, which cost a 3-joint arm about a third of its time);
-    the other kernels share the separately compiled ``_rnea_core``.  ``with_wrench`` and
-    ``with_friction`` are 1.0 or 0.0, not booleans: a literal True/False would be part of the
-    compiled signature, so callers passing literals and computed flags compiled twice."""
+
+@small_kernel
+def rnea_inline(m, ws, q, qd, qdd, gravity_scale, h_e, tau_out):
+    """Inverse dynamics τ of (D1) with every term, by recursive Newton–Euler (Siciliano §7.5)
+    in joint frames, inlined into its caller (see the module docstring):
+
+        τ = B q̈ + C q̇ + F_v q̇ + F_s sgn q̇ + g_s + Jᵀ h_e ,  g_s = g(q) · gravity_scale   (D1)
+
+    ``h_e`` (6,), or None for free motion: numba then compiles the wrench term away (an
+    all-zero ``h_e`` skips it at run time).
+    """
+    local_transforms_into(m, q, ws.R, ws.p)
     n = q.shape[0]
     R, p, w, wd, a, f, mu = ws.R, ws.p, ws.w, ws.wd, ws.a, ws.f, ws.mu
     # Forward: velocities and accelerations; the base accelerates by −g_0 so gravity acts
@@ -193,7 +201,7 @@ def _rnea_body(m, ws, q, qd, qdd, gravity_scale, h_e, with_wrench, with_friction
             tau_out[i] = kr * Im * sd
         else:
             tau_out[i] = 0.0
-    if with_wrench != 0.0:
+    if h_e is not None and _has_wrench(h_e):
         # The end effector pushes the environment with h_e: f_{n+1} = h_e, expressed in J_n.
         R0 = ws.R0
         for r in range(3):
@@ -240,60 +248,33 @@ def _rnea_body(m, ws, q, qd, qdd, gravity_scale, h_e, with_wrench, with_friction
             tau_out[i] += f[i, 2]
         else:
             tau_out[i] += mu[i, 2]
-        if with_friction != 0.0:
-            v = qd[i]
-            tau_out[i] += m.viscous[i] * v
+        v = qd[i]
+        tau_out[i] += m.viscous[i] * v
+        coulomb = m.coulomb[i]
+        if coulomb != 0.0:          # (a sign test only where there is Coulomb friction)
             if v > 0.0:
-                tau_out[i] += m.coulomb[i]
+                tau_out[i] += coulomb
             elif v < 0.0:
-                tau_out[i] -= m.coulomb[i]
-
-
-@kernel
-def _rnea_core(m, ws, q, qd, qdd, gravity_scale, h_e, with_wrench, with_friction, tau_out):
-    """:func:`_rnea_body`, compiled once for gravity_into, bias_into and coriolis_matrix_into."""
-    _rnea_body(m, ws, q, qd, qdd, gravity_scale, h_e, with_wrench, with_friction, tau_out)
-
-
-@small_kernel
-def _has_wrench(h_e):
-    for k in range(6):
-        if h_e[k] != 0.0:
-            return True
-    return False
-
-
-@small_kernel
-def rnea_inline(m, ws, q, qd, qdd, gravity_scale, h_e, tau_out):
-    """:func:`rnea_into`, inlined into its caller (see the module docstring)."""
-    local_transforms_into(m, q, ws.R, ws.p)
-    _rnea_body(m, ws, q, qd, qdd, gravity_scale, h_e, 1.0 if _has_wrench(h_e) else 0.0, 1.0, tau_out)
+                tau_out[i] -= coulomb
 
 
 @kernel
 def rnea_into(m, ws, q, qd, qdd, gravity_scale, h_e, tau_out):
-    """Inverse dynamics τ of (D1) with every term, by recursive Newton–Euler.
-
-        τ = B q̈ + C q̇ + F_v q̇ + F_s sgn q̇ + g_s + Jᵀ h_e ,  g_s = g(q) · gravity_scale   (D1)
-
-    q, qd, qdd (n,); h_e (6,) in Σ_0; tau_out (n,) [N | N·m].
-    """
+    """:func:`rnea_inline` behind one call: τ of (D1), q, qd, qdd (n,); h_e (6,) in Σ_0;
+    tau_out (n,) [N | N·m]."""
     rnea_inline(m, ws, q, qd, qdd, gravity_scale, h_e, tau_out)
 
 
 @kernel
 def gravity_into(m, ws, q, g_out):
     """Gravity torque g(q) = ∂U/∂q, (n,) [N | N·m] (RNEA with q̇ = q̈ = 0)."""
-    local_transforms_into(m, q, ws.R, ws.p)
-    z = ws.zero
-    _rnea_core(m, ws, q, z, z, 1.0, ws.R0[0], 0.0, 0.0, g_out)
+    rnea_inline(m, ws, q, ws.zero, ws.zero, 1.0, None, g_out)
 
 
 @kernel
 def bias_into(m, ws, q, qd, h_e, out):
     """Everything but inertia: C q̇ + F_v q̇ + F_s sgn q̇ + g + Jᵀ h_e, (n,) (RNEA with q̈ = 0)."""
-    local_transforms_into(m, q, ws.R, ws.p)
-    _rnea_core(m, ws, q, qd, ws.zero, 1.0, h_e, 1.0 if _has_wrench(h_e) else 0.0, 1.0, out)
+    rnea_inline(m, ws, q, qd, ws.zero, 1.0, h_e, out)
 
 
 @small_kernel
@@ -432,6 +413,14 @@ def mass_matrix_into(m, ws, q, B_out):
     mass_matrix_inline(m, ws, q, B_out)
 
 
+@small_kernel
+def _frictionless(m, zero):
+    """``m`` with F_v = F_s = 0 (``zero``: n zeros): the rigid body whose C (D4) is wanted."""
+    return RobotArrays(m.joint_type, m.tree_R, m.tree_p, m.offset, m.tool_R, m.tool_p, m.base_R,
+                       m.base_p, m.mass, m.com, m.inertia, m.gear_ratio, m.rotor_inertia, zero, zero,
+                       m.q_min, m.q_max, m.gravity)
+
+
 @kernel
 def coriolis_matrix_into(m, ws, q, qd, C_out):
     """Christoffel-symbol C(q, q̇), (n, n), so that Ḃ − 2C is skew-symmetric.
@@ -444,7 +433,6 @@ def coriolis_matrix_into(m, ws, q, qd, C_out):
     normalised first so both arguments are of unit size (no cancellation).
     """
     n = q.shape[0]
-    local_transforms_into(m, q, ws.R, ws.p)
     norm = 0.0
     for k in range(n):
         norm += qd[k] * qd[k]
@@ -454,16 +442,16 @@ def coriolis_matrix_into(m, ws, q, qd, C_out):
             for c in range(n):
                 C_out[r, c] = 0.0
         return
+    rigid = _frictionless(m, ws.zero)
     u, t1, t2 = ws.v1, ws.t1, ws.t2
     for j in range(n):
-        for k in range(n):
-            u[k] = qd[k] / norm
-        u[j] += 1.0
-        _rnea_core(m, ws, q, u, ws.zero, 0.0, ws.R0[0], 0.0, 0.0, t1)
-        for k in range(n):
-            u[k] = -qd[k] / norm
-        u[j] += 1.0
-        _rnea_core(m, ws, q, u, ws.zero, 0.0, ws.R0[0], 0.0, 0.0, t2)
+        # Γ(e_j + u, ·) into t1, then Γ(e_j − u, ·) into t2 (one inlined RNEA for both).
+        for side in range(2):
+            sign = 1.0 if side == 0 else -1.0
+            for k in range(n):
+                u[k] = sign * qd[k] / norm
+            u[j] += 1.0
+            rnea_inline(rigid, ws, q, u, ws.zero, 0.0, None, t1 if side == 0 else t2)
         for r in range(n):
             C_out[r, j] = 0.25 * norm * (t1[r] - t2[r])
 
@@ -511,11 +499,10 @@ def forward_dynamics_into(m, ws, q, qd, tau, h_e, qdd_out):
 
 @small_kernel
 def forward_dynamics_inline(m, ws, q, qd, tau, h_e, qdd_out):
-    """:func:`forward_dynamics_into`, inlined into its caller.  The CRBA is inlined and runs on
-    the joint transforms ``bias_into`` leaves in ``ws``; the RNEA stays behind its call, shared
-    with the other kernels (each inlined copy of it costs seconds of compile)."""
+    """:func:`forward_dynamics_into`, inlined into its caller; the CRBA runs on the joint
+    transforms the RNEA of the bias leaves in ``ws``."""
     n = q.shape[0]
-    bias_into(m, ws, q, qd, h_e, qdd_out)
+    rnea_inline(m, ws, q, qd, ws.zero, 1.0, h_e, qdd_out)
     for k in range(n):
         qdd_out[k] = tau[k] - qdd_out[k]
     _crba_body(m, ws, n, ws.L)

@@ -1,17 +1,18 @@
 """Compiled kinetic and potential energy of a robot, rotors included (D6, D7).
 
 Used by the energy-conservation checks of the simulator and by ``armlab.kinetic_energy`` /
-``armlab.potential_energy``; they share the joint-frame recursion conventions of
-``armlab.kernels.dynamics`` (scratch space from its ``DynamicsWorkspace``).
+``armlab.potential_energy``, inlined into those entries (they are small); they share the
+joint-frame recursion conventions of ``armlab.kernels.dynamics`` (scratch space from its
+``DynamicsWorkspace``).
 """
 
 from __future__ import annotations
 
-from armlab.kernels.dynamics import kernel, local_transforms_into
+from armlab.kernels.dynamics import local_transforms_into, small_kernel
 from armlab.model.robot import PRISMATIC
 
 
-@kernel
+@small_kernel
 def kinetic_energy_kernel(m, ws, q, qd):
     """Kinetic energy [J] summed body by body, rotors included (D3, D6):
 
@@ -60,7 +61,7 @@ def kinetic_energy_kernel(m, ws, q, qd):
     return energy
 
 
-@kernel
+@small_kernel
 def potential_energy_kernel(m, ws, q):
     """Gravitational potential energy [J], zero at Σ_0's origin:
 

@@ -24,7 +24,6 @@ from llvmlite import ir
 from numba import types
 from numba.core import cgutils
 from numba.extending import intrinsic
-from numba.np.arrayobj import make_array
 
 from armlab.errors import ArmlabError
 
@@ -116,38 +115,3 @@ def kernel_address(dispatcher, argtypes: tuple, restype) -> int:
         _ADDRESSES[key] = address
     _BY_IDENTITY[(id(dispatcher), id(argtypes))] = (dispatcher, argtypes, address)
     return address
-
-
-def _borrow(context, builder, typ, value):
-    """``value`` of numba type ``typ`` with every array's reference to its owner cleared."""
-    if isinstance(typ, types.Array):
-        array = make_array(typ)(context, builder, value)
-        array.meminfo = cgutils.get_null_value(array.meminfo.type)
-        array.parent = cgutils.get_null_value(array.parent.type)
-        return array._getvalue()
-    if isinstance(typ, types.BaseTuple):
-        for i, member in enumerate(typ):
-            if _holds_arrays(member):
-                item = builder.extract_value(value, i)
-                value = builder.insert_value(value, _borrow(context, builder, member, item), i)
-    return value
-
-
-def _holds_arrays(typ) -> bool:
-    return isinstance(typ, types.Array) or (
-        isinstance(typ, types.BaseTuple) and any(_holds_arrays(t) for t in typ))
-
-
-@intrinsic
-def borrowed(typingctx, value):
-    """``value`` (an array or a (named) tuple of arrays, numbers and such tuples) whose arrays
-    no longer reference their owners: the same memory, but numba's reference counting skips
-    them (a null owner), so handing them around the loop costs no atomic operations.
-
-    For compiled code that runs entirely inside one call from Python, whose caller keeps the
-    owners alive until it returns (the simulation entries): such arrays must never be
-    returned, stored or outlive that call."""
-    def codegen(context, builder, sig, args):
-        return _borrow(context, builder, sig.args[0], args[0])
-
-    return value(value), codegen

@@ -78,7 +78,6 @@ from numba import njit, typeof, types
 from armlab.disturbances import disturbance_into
 from armlab.kernels.environment import FreeSpaceParams, free_space_law
 from armlab.kernels.indirect import (
-    borrowed,
     call_float,
     call_int,
     call_none,
@@ -86,7 +85,7 @@ from armlab.kernels.indirect import (
     kernel_address,
     stack_address,
 )
-from armlab.kernels.packed import buffer_view
+from armlab.kernels.packed import borrowed, buffer_view
 from armlab.kernels.plant import forward_dynamics_packed, kinetic_energy_packed, measure_packed
 
 (FN_LAW_ENTRY, FN_LAW, FN_ENV_TRAMPOLINE, FN_ENV, FN_FORWARD_DYNAMICS, FN_KINETIC_ENERGY,

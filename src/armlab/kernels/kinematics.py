@@ -26,10 +26,7 @@ from numba import njit
 from armlab.model.robot import PRISMATIC
 from armlab.spatial import ZYZ, euler_angles_into, euler_rate_dot_times, euler_rates_from_omega
 
-# Allocation-free kernels run without reference counting: with it, every array taken out of
-# ``m`` or ``ws`` and every row view costs an atomic increment/decrement pair (measured 2–5×
-# slower on a 6-joint arm).  The two entry points that allocate their scratch keep it.
-kernel = njit(cache=True, _nrt=False)
+kernel = njit(cache=True)
 
 
 @kernel

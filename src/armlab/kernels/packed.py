@@ -76,6 +76,43 @@ def buffer_view(typingctx, buf, offset, shape, dtype):
     return result(buf, offset, shape, dtype), codegen
 
 
+def _borrow(context, builder, typ, value):
+    """``value`` of numba type ``typ`` with every array's reference to its owner cleared."""
+    if isinstance(typ, types.Array):
+        view = make_array(typ)(context, builder, value)
+        view.meminfo = context.get_constant_null(types.MemInfoPointer(types.voidptr))
+        view.parent = context.get_constant_null(types.pyobject)
+        return view._getvalue()
+    if isinstance(typ, types.BaseTuple):
+        for i, member in enumerate(typ):
+            if _holds_arrays(member):
+                item = builder.extract_value(value, i)
+                value = builder.insert_value(value, _borrow(context, builder, member, item), i)
+    return value
+
+
+def _holds_arrays(typ) -> bool:
+    return isinstance(typ, types.Array) or (
+        isinstance(typ, types.BaseTuple) and any(_holds_arrays(t) for t in typ))
+
+
+@intrinsic
+def borrowed(typingctx, value):
+    """``borrowed(value)``: ``value`` (an array, or a (named) tuple of arrays, numbers and such
+    tuples) whose arrays no longer reference their owners: the same memory, but numba's
+    reference counting skips them, and, their owner being a constant null, the compiler
+    removes the counting code altogether (an atomic increment and decrement, or at least a
+    test and a branch, for every array taken out of a tuple or passed on).
+
+    For compiled code that runs inside a call whose caller keeps the owners alive until it
+    returns (the simulation loop and the functions it calls, the plant kernels): such arrays
+    and their views must never be returned, stored or outlive that call."""
+    def codegen(context, builder, sig, args):
+        return _borrow(context, builder, sig.args[0], args[0])
+
+    return value(value), codegen
+
+
 @njit(cache=True, inline="always")
 def unpack_robot(joint_type, data):
     """The :class:`RobotArrays` whose float arrays are views into ``data`` (see pack_robot).

@@ -11,6 +11,7 @@ inside compiled code (no copy, no allocation):
 
 Kernels over a packed robot (all arrays float64, C-contiguous; (n,) unless stated):
 
+    zero_wrench(packed) -> (6,) view (Python)
     inverse_dynamics_packed(packed, q, qd, qdd, tau_out)   τ of (D1) with gravity, h_e = 0
     forward_dynamics_packed(packed, q, qd, tau, h_e, qdd_out) -> 0 | 1 wrong length | 2 B not PD
     kinetic_energy_packed(packed, q, qd) -> T [J] (NaN for a wrong length)
@@ -28,13 +29,13 @@ from numba import njit
 from armlab.kernels.dynamics import (
     forward_dynamics_inline,
     kernel,
-    rnea_into,
+    rnea_inline,
     workspace_from_buffer,
     workspace_size,
 )
 from armlab.kernels.energy import kinetic_energy_kernel
 from armlab.kernels.kinematics import end_effector_into, geometric_jacobian_into, joint_frames_into
-from armlab.kernels.packed import buffer_view, pack_robot, unpack_robot
+from armlab.kernels.packed import borrowed, buffer_view, pack_robot, unpack_robot
 from armlab.model.robot import RobotArrays
 
 HEAD = 7
@@ -48,9 +49,18 @@ def pack_plant(arrays: RobotArrays) -> np.ndarray:
                            np.zeros(workspace_size(n)), data])
 
 
-@njit(cache=True, _nrt=False, inline="always")
+def zero_wrench(packed: np.ndarray) -> np.ndarray:
+    """The zero wrench (6,) inside ``packed`` (a view), for calls without contact."""
+    n = int(packed[0])
+    return packed[1 + n:7 + n]
+
+
+@njit(cache=True, inline="always")
 def unpack_plant(packed):
-    """(n, m, ws, zero wrench) of a packed robot: views into ``packed``."""
+    """(n, m, ws, zero wrench) of a packed robot: views into ``packed``, borrowed (they add no
+    reference count: ~35 arrays, whose counting would cost more than a small arm's dynamics,
+    and live no longer than the call that holds ``packed``)."""
+    packed = borrowed(packed)
     n = int(packed[0])
     joint_type = buffer_view(packed, 1, n, np.int64)
     size = workspace_size(n)
@@ -64,8 +74,8 @@ def unpack_plant(packed):
 def inverse_dynamics_packed(packed, q, qd, qdd, tau_out):
     """τ = B q̈ + C q̇ + F_v q̇ + F_s sgn q̇ + g (D1, h_e = 0) by the RNEA; lengths unchecked
     (compiled callers pass n-vectors)."""
-    n, m, ws, zero_wrench = unpack_plant(packed)
-    rnea_into(m, ws, q, qd, qdd, 1.0, zero_wrench, tau_out)
+    n, m, ws, _ = unpack_plant(packed)
+    rnea_inline(m, ws, q, qd, qdd, 1.0, None, tau_out)
 
 
 @kernel

@@ -98,7 +98,7 @@ def workspace_from_buffer(buf, n):
     return DynamicsWorkspace(R, p, w, wd, a, f, mu, Ic, hc, mc, L, v1, v2, t1, t2, zero, R0)
 
 
-@njit(cache=True, _nrt=True)
+@njit(cache=True)
 def make_workspace(n):
     """A :class:`DynamicsWorkspace` for an n-joint robot (one zeroed buffer)."""
     return workspace_from_buffer(np.zeros(workspace_size(n)), n)

@@ -18,7 +18,6 @@ origin on that axis; the compiled kernels work in joint frames only, so every al
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
-from functools import cached_property
 from typing import Literal, NamedTuple
 
 import numpy as np
@@ -213,7 +212,8 @@ class Robot:
     end-effector frame Σ_e seen from the last link frame Σ_n.  ``gravity`` is g_0 in Σ_0
     [m/s²].  ``source`` names the file it was loaded from, ``description`` says what it is,
     ``parameters`` holds the named values of the robot file (L0, m_Link4, …) and ``spec`` the
-    file's raw content, expressions unevaluated, for the symbolic derivations.
+    file's raw content, expressions unevaluated, for the symbolic derivations.  ``arrays`` is
+    its :class:`RobotArrays`, derived at construction.
     """
 
     name: str
@@ -226,6 +226,7 @@ class Robot:
     source: str = ""
     parameters: dict = field(default_factory=dict)
     spec: dict = field(default_factory=dict)
+    arrays: RobotArrays = field(init=False, repr=False, compare=False)
 
     def __post_init__(self):
         object.__setattr__(self, "joints", tuple(self.joints))
@@ -237,6 +238,8 @@ class Robot:
             raise ValueError(f"{len(self.joints)} joints but {len(self.links)} links")
         if not self.joints:
             raise ValueError("a robot needs at least one joint")
+        # Derived once, here, before anyone holds the robot: nothing is written into it later.
+        object.__setattr__(self, "arrays", _robot_arrays(self))
 
     def __hash__(self):
         return id(self)
@@ -285,46 +288,46 @@ class Robot:
         links[index] = replace(links[index], inertial=new_inertial)
         return self.replace(links=tuple(links))
 
-    @cached_property
-    def arrays(self) -> RobotArrays:
-        """The :class:`RobotArrays` of this robot (computed once; the robot is immutable)."""
-        n = self.n
-        tree = np.zeros((n, 4, 4))
-        previous_after = np.eye(4)
-        com = np.zeros((n, 3))
-        inertia = np.zeros((n, 3, 3))
-        for i, (joint, link) in enumerate(zip(self.joints, self.links, strict=True)):
-            tree[i] = previous_after @ joint.before
-            previous_after = joint.after
-            # The link's inertial is given in Σ_i = J_i · S_i; move it into J_i.
-            R_after, p_after = joint.after[:3, :3], joint.after[:3, 3]
-            com[i] = R_after @ link.inertial.com + p_after
-            # Symmetric to the last bit: the CRBA reads one triangle, the RNEA the whole tensor
-            # (files may carry an asymmetry up to 1e-12; a tensor built in code, any).
-            rotated = R_after @ link.inertial.inertia @ R_after.T
-            inertia[i] = 0.5 * (rotated + rotated.T)
-        tool = previous_after @ self.tool
-        mass = np.array([lk.inertial.mass for lk in self.links])
-        for i in range(1, n):
-            _lump_point_mass(mass, com, inertia, i - 1, self.joints[i].motor.mass, tree[i, :3, 3])
-        arrays = RobotArrays(
-            joint_type=np.array([JOINT_KINDS[j.kind] for j in self.joints], dtype=np.int64),
-            tree_R=np.ascontiguousarray(tree[:, :3, :3]),
-            tree_p=np.ascontiguousarray(tree[:, :3, 3]),
-            offset=np.array([j.offset for j in self.joints]),
-            tool_R=np.ascontiguousarray(tool[:3, :3]),
-            tool_p=np.ascontiguousarray(tool[:3, 3]),
-            base_R=np.ascontiguousarray(self.base[:3, :3]),
-            base_p=np.ascontiguousarray(self.base[:3, 3]),
-            mass=mass,
-            com=com,
-            inertia=inertia,
-            gear_ratio=np.array([j.motor.gear_ratio for j in self.joints]),
-            rotor_inertia=np.array([j.motor.rotor_inertia for j in self.joints]),
-            viscous=np.array([j.friction.viscous for j in self.joints]),
-            coulomb=np.array([j.friction.coulomb for j in self.joints]),
-            q_min=np.array([j.limits[0] for j in self.joints], dtype=float),
-            q_max=np.array([j.limits[1] for j in self.joints], dtype=float),
-            gravity=np.array(self.gravity, dtype=float),
-        )
-        return arrays
+
+def _robot_arrays(robot: Robot) -> RobotArrays:
+    """The :class:`RobotArrays` of ``robot`` (its attribute ``arrays``, made at construction)."""
+    n = robot.n
+    tree = np.zeros((n, 4, 4))
+    previous_after = np.eye(4)
+    com = np.zeros((n, 3))
+    inertia = np.zeros((n, 3, 3))
+    for i, (joint, link) in enumerate(zip(robot.joints, robot.links, strict=True)):
+        tree[i] = previous_after @ joint.before
+        previous_after = joint.after
+        # The link's inertial is given in Σ_i = J_i · S_i; move it into J_i.
+        R_after, p_after = joint.after[:3, :3], joint.after[:3, 3]
+        com[i] = R_after @ link.inertial.com + p_after
+        # Symmetric to the last bit: the CRBA reads one triangle, the RNEA the whole tensor
+        # (files may carry an asymmetry up to 1e-12; a tensor built in code, any).
+        rotated = R_after @ link.inertial.inertia @ R_after.T
+        inertia[i] = 0.5 * (rotated + rotated.T)
+    tool = previous_after @ robot.tool
+    mass = np.array([lk.inertial.mass for lk in robot.links])
+    for i in range(1, n):
+        _lump_point_mass(mass, com, inertia, i - 1, robot.joints[i].motor.mass, tree[i, :3, 3])
+    arrays = RobotArrays(
+        joint_type=np.array([JOINT_KINDS[j.kind] for j in robot.joints], dtype=np.int64),
+        tree_R=np.ascontiguousarray(tree[:, :3, :3]),
+        tree_p=np.ascontiguousarray(tree[:, :3, 3]),
+        offset=np.array([j.offset for j in robot.joints]),
+        tool_R=np.ascontiguousarray(tool[:3, :3]),
+        tool_p=np.ascontiguousarray(tool[:3, 3]),
+        base_R=np.ascontiguousarray(robot.base[:3, :3]),
+        base_p=np.ascontiguousarray(robot.base[:3, 3]),
+        mass=mass,
+        com=com,
+        inertia=inertia,
+        gear_ratio=np.array([j.motor.gear_ratio for j in robot.joints]),
+        rotor_inertia=np.array([j.motor.rotor_inertia for j in robot.joints]),
+        viscous=np.array([j.friction.viscous for j in robot.joints]),
+        coulomb=np.array([j.friction.coulomb for j in robot.joints]),
+        q_min=np.array([j.limits[0] for j in robot.joints], dtype=float),
+        q_max=np.array([j.limits[1] for j in robot.joints], dtype=float),
+        gravity=np.array(robot.gravity, dtype=float),
+    )
+    return arrays

@@ -58,13 +58,13 @@ from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
 
-from armlab.closed_form import choice_problem
 from armlab.control.adaptive import SlotineLi1DoF
 from armlab.control.base import Controller, Environment
 from armlab.disturbances import TorqueDisturbance
 from armlab.errors import ArmlabError
 from armlab.model.robot import Robot
 from armlab.scenarios.tables import ScenarioFileError, build, integer, numbers, robot
+from armlab.specialise import choice_problem
 
 # The modules whose classes scenario files name: each registers its own (armlab.registry).
 DECLARING_MODULES = ("armlab.control.joint_space", "armlab.control.adaptive", "armlab.control.task_space",

@@ -222,8 +222,8 @@ def closed_form_torque(robot: Robot | SymbolicRobot):
 
     B q̈ + C q̇ + g is one SymPy vector, lambdified with common subexpressions, so the compiled
     code is the scalar arithmetic a person would write by hand (no matrices are filled).
-    Compiled without reference counting: it allocates nothing and can be called from other
-    compiled loops.  q, qd, qdd, tau_out (n,) [m | rad, /s, /s², N | N·m].
+    It allocates nothing and can be called from other compiled loops.  q, qd, qdd, tau_out (n,)
+    [m | rad, /s, /s², N | N·m].
     """
     sr = robot if isinstance(robot, SymbolicRobot) else symbolic_robot(robot, numeric=True)
     values = sr.numeric_substitution()
@@ -233,13 +233,13 @@ def closed_form_torque(robot: Robot | SymbolicRobot):
                for M in (inertia_matrix(sr), coriolis_matrix(sr), gravity_vector(sr)))
     tau = B * sp.Matrix(qdd) + C * sp.Matrix(qd) + g.reshape(sr.n, 1)
     exprs = tuple(sp.Float(e) if e.is_Number else e for e in tau)
-    evaluate = numba.njit(_nrt=False)(
+    evaluate = numba.njit(
         sp.lambdify([q, qd, qdd], exprs, modules="math", cse=True, docstring_limit=0))
     viscous = np.array([float(j.viscous.xreplace(values)) for j in sr.joints])
     coulomb = np.array([float(j.coulomb.xreplace(values)) for j in sr.joints])
     n = sr.n
 
-    @numba.njit(_nrt=False)
+    @numba.njit
     def tau_into(q, qd, qdd, tau_out):
         rigid = evaluate(q, qd, qdd)
         for i in range(n):

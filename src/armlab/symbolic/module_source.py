@@ -1,6 +1,6 @@
 """Source of a Python module holding a robot's closed-form dynamics as numba kernels.
 
-The module is written to a file (``armlab.closed_form``) so that numba caches its compile on
+The module is written to a file (``armlab.specialise.closed_form``) so that numba caches its compile on
 disk like any other kernel; the functions have the signatures of the packed-robot kernels of
 ``armlab.kernels.plant`` and ignore the packed robot (the robot's numbers are in the formulas):
 
@@ -141,7 +141,7 @@ def closed_form_source(sr: SymbolicRobot, *, key: str, name: str) -> str:
     # Inverse dynamics: one vector formula.
     tau = B * sp.Matrix(qdd) + bias
     cse_lines, outputs = _statements(tau, "t", printer)
-    inverse = ["@njit(cache=True, _nrt=False)", "def inverse_dynamics(packed, q, qd, qdd, tau_out):",
+    inverse = ["@njit(cache=True)", "def inverse_dynamics(packed, q, qd, qdd, tau_out):",
                '    """τ = B q̈ + C q̇ + g + F_v q̇ + F_s sgn q̇ (D1, h_e = 0)."""', *unpack,
                *[f"    qdd{i} = qdd[{i}]" for i in range(n)], *cse_lines, *friction,
                *[f"    tau_out[{i}] = {outputs[i]} + f{i}" for i in range(n)]]
@@ -161,7 +161,7 @@ def closed_form_source(sr: SymbolicRobot, *, key: str, name: str) -> str:
         terms = [f"({j_outputs[6 * c + r]})*h_e[{r}]" for r in range(6) if J[r, c] != 0]
         if terms:
             wrench.append(f"        r{c} -= " + " + ".join(terms))
-    forward = ["@njit(cache=True, _nrt=False)",
+    forward = ["@njit(cache=True)",
                "def forward_dynamics(packed, q, qd, tau, h_e, qdd_out):",
                '    """q̈ of B q̈ = τ − C q̇ − g − F_v q̇ − F_s sgn q̇ − Jᵀ h_e (D1, D5); 1 for a wrong'
                ' length, 2 if B is not PD."""',
@@ -174,7 +174,7 @@ def closed_form_source(sr: SymbolicRobot, *, key: str, name: str) -> str:
                *[f"    qdd_out[{i}] = x{i}" for i in range(n)], "    return 0"]
     energy = sp.Rational(1, 2) * (sp.Matrix(qd).T * B * sp.Matrix(qd))[0, 0]
     cse_lines, outputs = _statements([energy], "e", printer)
-    kinetic = ["@njit(cache=True, _nrt=False)", "def kinetic_energy(packed, q, qd):",
+    kinetic = ["@njit(cache=True)", "def kinetic_energy(packed, q, qd):",
                '    """T = ½ q̇ᵀ B q̇ (D6) [J]; NaN for a wrong length."""',
                f"    if q.shape[0] != {n} or qd.shape[0] != {n}:", "        return math.nan",
                *unpack, *cse_lines, f"    return {outputs[0]}"]
@@ -185,19 +185,11 @@ def closed_form_source(sr: SymbolicRobot, *, key: str, name: str) -> str:
             + "\n".join(checked_inverse_lines(n)) + "\n")
 
 
-def _plain(name: str, n: int) -> str:
-    """The test that vector ``name`` has n items 8 bytes apart (any stride for one item) from an
-    8-byte aligned address: the Python entries' machine code is called without numba's type
-    check (``armlab.dynamics``)."""
-    stride = f"{name}.strides[0] == 8" if n > 1 else "True"
-    return f"({name}.shape[0] == {n} and {stride} and {name}.ctypes.data % 8 == 0)"
-
-
 def mass_matrix_lines(n: int, body: list[str], entries: list[str]) -> list[str]:
     """``mass_matrix(packed, q, B_out)``: ``body`` computes the n² row-major ``entries``."""
-    return ["@njit(cache=True, _nrt=False)", "def mass_matrix(packed, q, B_out):",
-            '    """B(q) (D2); 1 unless q is a plain vector of the right length."""',
-            f"    if not {_plain('q', n)} or B_out.shape[0] != {n} or B_out.shape[1] != {n}:",
+    return ["@njit(cache=True)", "def mass_matrix(packed, q, B_out):",
+            '    """B(q) (D2); 1 for a wrong length."""',
+            f"    if q.shape[0] != {n} or B_out.shape[0] != {n} or B_out.shape[1] != {n}:",
             "        return 1", *body,
             *[f"    B_out[{i}, {j}] = {entries[n * i + j]}" for i in range(n) for j in range(n)],
             "    return 0"]
@@ -205,12 +197,11 @@ def mass_matrix_lines(n: int, body: list[str], entries: list[str]) -> list[str]:
 
 def checked_inverse_lines(n: int) -> list[str]:
     """``checked_inverse_dynamics``: the module's ``inverse_dynamics`` after a length check."""
-    return ["@njit(cache=True, _nrt=False)",
+    return ["@njit(cache=True)",
             "def checked_inverse_dynamics(packed, q, qd, qdd, tau_out):",
-            '    """inverse_dynamics for calls from Python; 1 unless the vectors are plain and of the'
-            ' right length."""',
-            f"    if not ({_plain('q', n)} and {_plain('qd', n)} and {_plain('qdd', n)})"
-            f" or tau_out.shape[0] != {n}:",
+            '    """inverse_dynamics for calls from Python; 1 for a wrong length."""',
+            f"    if (q.shape[0] != {n} or qd.shape[0] != {n} or qdd.shape[0] != {n}"
+            f" or tau_out.shape[0] != {n}):",
             "        return 1",
             "    inverse_dynamics(packed, q, qd, qdd, tau_out)",
             "    return 0"]

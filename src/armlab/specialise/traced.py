@@ -18,7 +18,9 @@ Entries of the robot's numbers that are rounding residue of its construction (co
 massless link's terms therefore generate no code, and
 there remains one implementation of each law: the numeric kernels.  A branch on a traced
 value (``if v > 0.0``) raises :class:`TracedBranch`; the two that exist are handled here:
-Coulomb friction is written out per joint, and the wrench term is traced on its own.
+Coulomb friction is written out per joint (the kernels trace a frictionless copy of the
+robot), and the wrench term is traced on its own (its run-time test, ``_has_wrench``, is taken
+as true while tracing).
 
 The module has the interface of the Lagrange closed forms (``armlab.symbolic.module_source``):
 
@@ -34,9 +36,9 @@ The module has the interface of the Lagrange closed forms (``armlab.symbolic.mod
     mass_matrix(packed, q, B_out) -> 0 | 1 wrong length      B(q) by the CRBA     (D2)
     checked_inverse_dynamics(packed, q, qd, qdd, tau_out) -> 0 | 1 wrong length
 
-The packed robot is ignored (the numbers are in the code).  ``armlab.closed_form`` writes the
-module to its cache folder, compiles it with numba (``cache=True``) and checks it against the
-numeric RNEA before use.
+The packed robot is ignored (the numbers are in the code).  ``armlab.specialise.closed_form``
+writes the module to its cache folder, compiles it with numba (``cache=True``) and checks it
+against the numeric RNEA before use.
 """
 
 from __future__ import annotations
@@ -49,7 +51,7 @@ import numpy as np
 from armlab.kernels import dynamics as _dynamics
 from armlab.model.robot import Robot, RobotArrays
 
-HEADER = '''"""Dynamics of robot {name!r} specialised to its numbers by armlab.traced (the numeric
+HEADER = '''"""Dynamics of robot {name!r} specialised to its numbers by armlab.specialise.traced (the numeric
 kernels partially evaluated).  Key {key}.  Do not edit: regenerated when the robot, the kernels
 or the generator change."""
 import math
@@ -58,10 +60,10 @@ from numba import njit
 
 
 '''
-# No reference counting (nothing is allocated).  Products feeding sums may be fused into one
-# multiply-add (one rounding instead of two: results move in the last bit): the code is long
-# chains of them, and the forward dynamics of a 6-joint arm runs ~15% faster.
-DECORATOR = "@njit(cache=True, _nrt=False, fastmath={'contract'})"
+# Products feeding sums may be fused into one multiply-add (one rounding instead of two: results
+# move in the last bit): the code is long chains of them, and the forward dynamics of a 6-joint
+# arm runs ~15% faster.
+DECORATOR = "@njit(cache=True, fastmath={'contract'})"
 # Entries of a rotation, a position, a centre of mass or an off-diagonal inertia product that
 # are this small relative to the rest of their link's block are rounding residue of the
 # model's construction (cos(π/2) = 6.1e-17, not 0): they are set to 0 (±1 for rotations)
@@ -274,13 +276,15 @@ def _snapped(arrays: RobotArrays) -> RobotArrays:
 
 def _python_kernels() -> dict:
     """The dynamics kernels as plain Python functions calling each other's Python bodies (a
-    kernel's ``py_func`` alone would still call the compiled helpers, which refuse objects)."""
+    kernel's ``py_func`` alone would still call the compiled helpers, which refuse objects).
+    The wrench test answers True: a traced wrench is known only at run time."""
     namespace = dict(vars(_dynamics))
     for name, value in list(namespace.items()):
         body = getattr(value, "py_func", None)
         if isinstance(body, types.FunctionType):
             namespace[name] = types.FunctionType(body.__code__, namespace, body.__name__,
                                                  body.__defaults__, body.__closure__)
+    namespace["_has_wrench"] = lambda h_e: True
     return namespace
 
 
@@ -294,9 +298,10 @@ class _Tracer:
     def __init__(self, robot: Robot):
         self.n = robot.n
         self.m = _snapped(robot.arrays)
-        kernels = _python_kernels()
-        self.transforms = kernels["local_transforms_into"]
-        self.rnea_body, self.crba = kernels["_rnea_body"], kernels["mass_matrix_into"]
+        # Friction is written out per joint (its sign test is a run-time branch).
+        self.rigid = self.m._replace(viscous=_objects(self.n), coulomb=_objects(self.n))
+        self.kernels = _python_kernels()
+        self.rnea_kernel, self.crba = self.kernels["rnea_inline"], self.kernels["mass_matrix_into"]
         # The field shapes of the kernels' own workspace, whatever its layout.
         workspace = _dynamics.make_workspace(self.n)
         self.ws = type(workspace)(*(_objects(a.shape) for a in workspace))
@@ -307,22 +312,17 @@ class _Tracer:
         out[:] = values
         return out
 
-    def set_transforms(self, q) -> None:
-        """J_i in J_{i−1} at q into the workspace (K1)."""
-        self.transforms(self.m, q, self.ws.R, self.ws.p)
-
     def mass_matrix(self, q) -> np.ndarray:
-        """B(q) by the CRBA (leaves the transforms of q in the workspace)."""
+        """B(q) by the CRBA."""
         B = _objects((self.n, self.n))
         self.crba(self.m, self.ws, q, B)
         return B
 
     def rnea(self, q, qd, qdd, gravity_scale, h_e=None) -> np.ndarray:
-        """RNEA without friction, on the transforms in the workspace."""
+        """RNEA without friction (the wrench term only with ``h_e``).  The joint transforms
+        are traced anew: the tape's memo returns the lines it has already."""
         tau = _objects(self.n)
-        wrench = _objects(6) if h_e is None else h_e
-        self.rnea_body(self.m, self.ws, q, qd, qdd, gravity_scale, wrench,
-                       0.0 if h_e is None else 1.0, 0.0, tau)
+        self.rnea_kernel(self.rigid, self.ws, q, qd, qdd, gravity_scale, h_e, tau)
         return tau
 
 
@@ -355,7 +355,6 @@ def traced_source(robot: Robot, *, key: str, name: str) -> str:
     tape = _Tape()
     q, qd = tracer.inputs(tape, "q", "q", n), tracer.inputs(tape, "qd", "qd", n)
     qdd = tracer.inputs(tape, "qdd", "qdd", n)
-    tracer.set_transforms(q)
     tau = tracer.rnea(q, qd, qdd, 1.0)
     body, _ = _live(tape.lines, _names(tau))
     inverse = [DECORATOR, "def inverse_dynamics(packed, q, qd, qdd, tau_out):",

@@ -19,40 +19,48 @@ Two generators write such a module:
 
 * robots of up to ``LAGRANGE_MAX_JOINTS`` joints: the Lagrange closed form — B(q), C(q, q̇) q̇ + g(q)
   and J(q) as ``armlab.symbolic`` derives them (A2–A3), printed by
-  ``armlab.symbolic.module_source`` (the symbolic derivation grows quickly with n);
-* larger robots: ``armlab.traced``, the numeric RNEA/CRBA kernels partially evaluated for the
-  robot's numbers (straight-line code, the geometry's zeros and ones folded away).
+  ``armlab.symbolic.module_source`` (the symbolic derivation grows quickly with n, and with
+  parameters that are not round numbers: minutes for some 3-joint arms);
+* larger robots: ``armlab.specialise.traced``, the numeric RNEA/CRBA kernels partially
+  evaluated for the robot's numbers (straight-line code, the geometry's zeros and ones folded
+  away).
 
 The module is written to the cache directory (folder ``closed_form`` of ``ARMLAB_CACHE_DIR``,
 default ``$XDG_CACHE_HOME/armlab`` or ``~/.cache/armlab``) under a key made of the robot's
 numbers and its generator's sources, and numba caches its compile beside it: the generation
 (seconds of SymPy for a 3-joint arm, a fraction of a second of tracing for the Puma560) and the
-compile (~7 s for the Puma560) happen once per robot and machine.  Every module is checked against the
-numeric kernels at random states before it is used (relative agreement 1e-9); one that
-disagrees, or a robot whose model cannot be generated, falls back to the numeric kernels with
-the reason in :func:`closed_form_status`.
+compile (~7 s for the Puma560) happen once per robot and machine.  Every module, new or found
+on disk, is checked against the compiled kernels (``armlab.kernels``) at random states before
+it is used in a process (relative agreement 1e-9); one that disagrees, or a robot whose model
+cannot be generated, falls back to the numeric kernels with the reason in
+:func:`closed_form_status`.  The outcome is kept per process by the robot's key, never in the
+robot.
 
 The choice, ``dynamics=``:
 
 * ``"numeric"`` — the general compiled RNEA/CRBA kernels (any robot);
-* ``"closed_form"`` — the robot's generated module, or an error saying why it is not available;
-* ``"auto"`` (default) — the generated module for robots of up to ``AUTO_MAX_JOINTS`` joints,
-  else (or, with the reason kept, when it cannot be made) the numeric kernels.
+* ``"closed_form"`` — the robot's generated module, made now if it is not on disk yet, or an
+  error saying why it is not available;
+* ``"auto"`` (the simulator's default) — the robot's generated module if it is on disk already
+  (made by an earlier ``"closed_form"`` request; importing and checking it takes a fraction of
+  a second), else at once the numeric kernels: the default never starts a derivation.
 """
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import importlib.util
 import os
 import sys
 import tempfile
+import threading
 from pathlib import Path
 
 import numpy as np
 
-from armlab.dynamics import inverse_dynamics
 from armlab.errors import ArmlabError
+from armlab.kernels.dynamics import make_workspace, rnea_into
 from armlab.kernels.plant import (
     forward_dynamics_packed,
     inverse_dynamics_packed,
@@ -61,14 +69,13 @@ from armlab.kernels.plant import (
 )
 from armlab.model.robot import Robot
 
-# Up to this many joints the Lagrange closed form (armlab.symbolic), beyond it armlab.traced.
+# Up to this many joints the Lagrange closed form (armlab.symbolic), beyond it the traced one.
 LAGRANGE_MAX_JOINTS = 3
-# "auto" uses a generated module up to this many joints: the code of B grows with n², and a
-# 12-joint arm's would take tens of seconds to compile (once per machine) before its first run.
-AUTO_MAX_JOINTS = 7
 DYNAMICS_CHOICES = ("auto", "closed_form", "numeric")
-_KEY = "_closed_form_module"
-_MODULES: dict = {}
+# The outcome for each robot key met in this process: its checked module, or why there is none.
+_OUTCOMES: dict = {}
+_LOCK = threading.Lock()
+_PACKAGE = Path(__file__).resolve().parents[1]            # armlab/
 
 
 class ClosedFormUnavailable(ArmlabError):
@@ -97,24 +104,60 @@ def _generator(robot: Robot) -> str:
     return "lagrange" if robot.n <= LAGRANGE_MAX_JOINTS else "traced"
 
 
-def _key(robot: Robot) -> str:
-    """Hash of everything the generated code depends on: the robot's numbers and the sources
-    of its generator — the symbolic model, or the traced generator and the kernels it evaluates."""
+@functools.cache
+def _sources_digest(generator: str) -> bytes:
+    """Hash of the sources the generated code depends on: the symbolic model, or the traced
+    generator and the kernels it evaluates (read, not imported: armlab.symbolic imports SymPy)."""
+    digest = hashlib.sha256()
+    if generator == "lagrange":
+        sources = sorted((_PACKAGE / "symbolic").glob("*.py"))
+    else:
+        digest.update(b"traced")
+        sources = [_PACKAGE / "specialise" / "traced.py", _PACKAGE / "kernels" / "dynamics.py",
+                   _PACKAGE / "symbolic" / "module_source.py"]           # its LDLᵀ lines
+    for path in sources:
+        digest.update(path.read_bytes())
+    return digest.digest()
+
+
+def robot_key(robot: Robot) -> str:
+    """Hash of everything a robot's generated code depends on: its numbers, its file's
+    expressions and the sources of its generator."""
     digest = hashlib.sha256()
     for name, value in zip(robot.arrays._fields, robot.arrays, strict=True):
         digest.update(name.encode())
         digest.update(np.ascontiguousarray(value).tobytes())
     digest.update(repr(robot.spec).encode() if getattr(robot, "spec", None) is not None else b"")
-    # Read, not imported: importing armlab.symbolic would import SymPy (~1 s) for a key.
-    here = Path(__file__).parent
-    sources = sorted((here / "symbolic").glob("*.py"))
-    if _generator(robot) == "traced":
-        digest.update(b"traced")
-        sources = [here / "traced.py", here / "kernels" / "dynamics.py",
-                   here / "symbolic" / "module_source.py"]           # its LDLᵀ lines
-    for path in sources:
-        digest.update(path.read_bytes())
+    digest.update(_sources_digest(_generator(robot)))
     return digest.hexdigest()[:20]
+
+
+def _module_name(key: str) -> str:
+    return f"armlab_closed_form_{key}"
+
+
+def _private_folder() -> Path:
+    """The folder of this user's in the temporary directory used when the cache is not
+    writable."""
+    return Path(tempfile.gettempdir()) / f"armlab-closed-form-{os.getuid()}"
+
+
+def _is_private(folder: Path) -> bool:
+    """Only this user may write into ``folder`` (code is imported from it)."""
+    info = folder.stat()
+    return info.st_uid == os.getuid() and not info.st_mode & 0o022
+
+
+def _on_disk(key: str) -> Path | None:
+    """The robot's generated module if it has been written already (nothing is created)."""
+    name = f"{_module_name(key)}.py"
+    path = cache_dir() / "closed_form" / name
+    if path.is_file():
+        return path
+    private = _private_folder()
+    if (private / name).is_file() and _is_private(private):
+        return private / name
+    return None
 
 
 def _writable_folder() -> Path:
@@ -125,9 +168,9 @@ def _writable_folder() -> Path:
         folder.mkdir(parents=True, exist_ok=True)
         (folder / ".write-test").touch()
     except OSError:
-        folder = Path(tempfile.gettempdir()) / f"armlab-closed-form-{os.getuid()}"
+        folder = _private_folder()
         folder.mkdir(mode=0o700, exist_ok=True)
-        if folder.stat().st_uid != os.getuid() or folder.stat().st_mode & 0o022:
+        if not _is_private(folder):
             raise ClosedFormUnavailable(f"{folder}: not a private folder of this user") from None
     return folder
 
@@ -139,7 +182,7 @@ def _generate(robot: Robot, key: str, path: Path) -> None:
 
         source = closed_form_source(symbolic_robot(robot, numeric=True), key=key, name=robot.name)
     else:
-        from armlab.traced import traced_source
+        from armlab.specialise.traced import traced_source
 
         source = traced_source(robot, key=key, name=robot.name)
     # Written atomically: parallel processes may generate the same module.
@@ -158,12 +201,21 @@ def _import(path: Path, name: str):
 
 
 def _verify(robot: Robot, module) -> str:
-    """'' if the module's dynamics agree with the numeric RNEA at random states, else why not.
+    """'' if the module's dynamics agree with the compiled RNEA (``armlab.kernels``) at random
+    states, else why not.
 
-    Only the RNEA is needed (it compiles in seconds): the inverse dynamics are compared
-    directly, the forward dynamics by putting q̈ back into the RNEA (τ = ID(q, q̇, q̈, h_e)),
-    the kinetic energy as ½ q̇ᵀ (B q̇) with B q̇ = ID(q, 0, q̇) without gravity."""
+    Only the RNEA is needed: the inverse dynamics are compared directly, the forward dynamics
+    by putting q̈ back into the RNEA (τ = ID(q, q̇, q̈, h_e)), the kinetic energy as
+    ½ q̇ᵀ (B q̇) with B q̇ = ID(q, 0, q̇) without gravity, B column by column."""
     n = robot.n
+    m, ws = robot.arrays, make_workspace(n)
+    no_wrench, zero = np.zeros(6), np.zeros(n)
+
+    def rnea(q, qd, qdd, gravity_scale=1.0, h_e=no_wrench):
+        tau = np.zeros(n)
+        rnea_into(m, ws, q, qd, qdd, gravity_scale, h_e, tau)
+        return tau
+
     rng = np.random.default_rng(20261122)
     packed = pack_plant(robot.arrays)  # ignored by the generated code
     lo = np.where(np.isfinite(robot.arrays.q_min), robot.arrays.q_min, -np.pi)
@@ -175,21 +227,19 @@ def _verify(robot: Robot, module) -> str:
             qd[:] = 0.0  # Coulomb friction's sgn(0) = 0 branch
         h_e = rng.normal(size=6)
         got = np.zeros(n)
-        expected = inverse_dynamics(robot, q, qd, qdd)
+        expected = rnea(q, qd, qdd)
         module.inverse_dynamics(packed, q, qd, qdd, got)
         if not np.allclose(got, expected, rtol=1e-9, atol=1e-9 * max(1.0, np.abs(expected).max())):
             return f"inverse dynamics differ from the numeric kernels at q = {q.tolist()}"
         if module.forward_dynamics(packed, q, qd, tau, h_e, got) == 0:
-            back = inverse_dynamics(robot, q, qd, got, h_e=h_e)
+            back = rnea(q, qd, got, h_e=h_e)
             if not np.allclose(back, tau, rtol=1e-8, atol=1e-8 * max(1.0, np.abs(back).max())):
                 return f"forward dynamics disagree with the numeric RNEA at q = {q.tolist()}"
-        momentum = inverse_dynamics(robot, q, np.zeros(n), qd, gravity=False)
-        energy = 0.5 * float(qd @ momentum)
+        energy = 0.5 * float(qd @ rnea(q, zero, qd, gravity_scale=0.0))
         if not np.isclose(module.kinetic_energy(packed, q, qd), energy, rtol=1e-9, atol=1e-12):
             return f"kinetic energy differs from the numeric kernels at q = {q.tolist()}"
         # Column j of B is the RNEA at q̇ = 0, q̈ = e_j without gravity.
-        columns = np.column_stack([inverse_dynamics(robot, q, np.zeros(n), e, gravity=False)
-                                   for e in np.eye(n)])
+        columns = np.column_stack([rnea(q, zero, e, gravity_scale=0.0) for e in np.eye(n)])
         B = np.zeros((n, n))
         if (module.mass_matrix(packed, q, B) != 0
                 or not np.allclose(B, columns, rtol=1e-9, atol=1e-9 * max(1.0, np.abs(columns).max()))):
@@ -202,44 +252,73 @@ def _verify(robot: Robot, module) -> str:
     return ""
 
 
-def closed_form_module(robot: Robot):
-    """The verified, compiled closed-form module of ``robot`` (generated on first use), or
-    :class:`ClosedFormUnavailable` with the reason.  The robot remembers the outcome (its key
-    or the reason, plain strings, so that it stays picklable)."""
-    known = robot.__dict__.get(_KEY)
-    if known is not None:
-        ok, text = known
-        if not ok:
-            raise ClosedFormUnavailable(text)
-        if text in _MODULES:
-            return _MODULES[text]
-        # A robot pickled into another process: its module is loaded (and checked) anew.
-    key = _key(robot)
-    name = f"armlab_closed_form_{key}"
-    reason = ""
-    module = _MODULES.get(key)
-    if module is None:
-        try:
-            path = _writable_folder() / f"{name}.py"
-            if not path.exists():
-                _generate(robot, key, path)
-            module = _import(path, name)
-            reason = _verify(robot, module)
-        except Exception as error:  # the symbolic model may not cover a robot: say so, fall back
-            first_line = (str(error).strip().splitlines() or [""])[0]
-            reason = f"no closed form for robot {robot.name!r}: {type(error).__name__}: {first_line}"
+def _load(robot: Robot, key: str, path: Path):
+    """The module at ``path`` imported and checked (its numba cache lies beside it), or
+    :class:`ClosedFormUnavailable`; either outcome is kept for ``key``."""
+    try:
+        module = _import(path, _module_name(key))
+        reason = _verify(robot, module)
+    except Exception as error:  # the symbolic model may not cover a robot: say so, fall back
+        first_line = (str(error).strip().splitlines() or [""])[0]
+        reason = f"no closed form for robot {robot.name!r}: {type(error).__name__}: {first_line}"
     if reason:
-        robot.__dict__[_KEY] = (False, reason)
+        _OUTCOMES[key] = reason
+        # Gone from disk, so that "auto" does not import and check it again in every process.
+        path.unlink(missing_ok=True)
         raise ClosedFormUnavailable(reason)
-    _MODULES[key] = module
-    robot.__dict__[_KEY] = (True, key)
+    _OUTCOMES[key] = module
     return module
+
+
+def closed_form_module(robot: Robot):
+    """The verified, compiled closed-form module of ``robot`` (generated now if it is not on
+    disk), or :class:`ClosedFormUnavailable` with the reason.  The outcome is kept for this
+    process under the robot's key (:func:`robot_key`), not in the robot."""
+    key = robot_key(robot)
+    known = _OUTCOMES.get(key)
+    if known is None:
+        with _LOCK:                         # one generation per robot at a time in a process
+            known = _OUTCOMES.get(key)
+            if known is None:
+                try:
+                    path = _on_disk(key)
+                    if path is None:
+                        path = _writable_folder() / f"{_module_name(key)}.py"
+                        _generate(robot, key, path)
+                except Exception as error:
+                    first_line = (str(error).strip().splitlines() or [""])[0]
+                    known = _OUTCOMES[key] = (f"no closed form for robot {robot.name!r}: "
+                                              f"{type(error).__name__}: {first_line}")
+                else:
+                    return _load(robot, key, path)
+    if isinstance(known, str):
+        raise ClosedFormUnavailable(known)
+    return known
+
+
+def cached_module(robot: Robot):
+    """``robot``'s checked module if one exists already (in this process or on disk), else
+    None; never generates one.  What ``dynamics="auto"`` uses."""
+    key = robot_key(robot)
+    known = _OUTCOMES.get(key)
+    if known is None:
+        path = _on_disk(key)
+        if path is None:
+            return None
+        with _LOCK:
+            known = _OUTCOMES.get(key)
+            if known is None:
+                try:
+                    return _load(robot, key, path)
+                except ClosedFormUnavailable:
+                    return None
+    return None if isinstance(known, str) else known
 
 
 def closed_form_status(robot: Robot) -> str:
     """Why ``robot`` has no usable closed form ('' if it has one or was never asked)."""
-    known = robot.__dict__.get(_KEY)
-    return known[1] if known is not None and not known[0] else ""
+    known = _OUTCOMES.get(robot_key(robot))
+    return known if isinstance(known, str) else ""
 
 
 def chosen_module(robot: Robot, dynamics: str, field: str = "dynamics"):
@@ -248,14 +327,11 @@ def chosen_module(robot: Robot, dynamics: str, field: str = "dynamics"):
     problem = choice_problem(dynamics)
     if problem:
         raise ClosedFormUnavailable(f"{field}: {problem}")
-    if dynamics == "numeric" or (dynamics == "auto" and robot.n > AUTO_MAX_JOINTS):
+    if dynamics == "numeric":
         return None
-    try:
-        return closed_form_module(robot)
-    except ClosedFormUnavailable:
-        if dynamics == "closed_form":
-            raise
-        return None
+    if dynamics == "auto":
+        return cached_module(robot)
+    return closed_form_module(robot)
 
 
 def plant_kernels(robot: Robot, dynamics: str = "auto", field: str = "dynamics"):
@@ -272,4 +348,3 @@ def inverse_dynamics_kernel(robot: Robot, dynamics: str = "auto", field: str = "
     """A compiled ``inverse_dynamics(packed, q, qd, qdd, tau_out)`` for ``robot``."""
     module = chosen_module(robot, dynamics, field)
     return inverse_dynamics_packed if module is None else module.inverse_dynamics
-
