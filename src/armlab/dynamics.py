@@ -122,9 +122,10 @@ def _refuse_data(robot: Robot, data) -> None:
 
 
 def packed_copy(robot: Robot) -> np.ndarray:
-    """A new packed array of ``robot`` (``armlab.kernels.plant``), for compiled code that uses
-    its workspace, e.g. one simulation of a parallel sweep."""
-    return pack_plant(robot.arrays)
+    """A private copy of ``robot``'s packed array (``armlab.kernels.plant``), for compiled code
+    that uses its workspace, e.g. one simulation of a parallel sweep (a copy of the default
+    data's: ~50 times cheaper than packing anew)."""
+    return (_default_get(id(robot)) or _default_data(robot)).packed.copy()
 
 
 # ---------------------------------------------------------------------------- compiled entries
