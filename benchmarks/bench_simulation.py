@@ -37,7 +37,7 @@ from numba import njit
 import armlab
 from agreement import OTHER_ALGORITHM, assert_close
 from armlab.control.joint_space import JointInverseDynamics
-from armlab.references import ViaPoints
+from armlab.references.joint import ViaPoints
 from armlab.scenarios import load_scenario
 from armlab.simulation import simulate, simulate_batch
 

@@ -193,7 +193,7 @@ def first_simulate(n: int, t_final: float = T_FINAL, dynamics: str | None = None
     prints the final q.  The whole of (c)'s random-arm process."""
     import armlab
     from armlab.control.joint_space import JointInverseDynamics
-    from armlab.references import ViaPoints
+    from armlab.references.joint import ViaPoints
 
     robot = random_arm(n)
     goal = np.linspace(0.3, -0.3, n)

@@ -12,7 +12,7 @@ from armlab.control.adaptive import (
     regressor_into,
     standard_parameters,
 )
-from armlab.references import Sinusoid, SquareWaveAcceleration
+from armlab.references.joint import Sinusoid, SquareWaveAcceleration
 from armlab.simulation import simulate
 
 LINK1 = armlab.load_robot("link1")

@@ -245,7 +245,7 @@ import json, pickle, sys
 import numpy as np
 from armlab.control.joint_space import JointInverseDynamics
 from armlab.kernels.plant import inverse_dynamics_packed
-from armlab.references import Constant
+from armlab.references.joint import Constant
 from armlab.simulation import simulate
 from armlab.specialise import inverse_dynamics_kernel
 with open(sys.argv[1], "rb") as stream:
@@ -277,7 +277,7 @@ def test_auto_never_starts_a_derivation_and_a_module_appears_only_on_request(mon
     import sys
 
     from armlab.control.joint_space import JointInverseDynamics
-    from armlab.references import Constant
+    from armlab.references.joint import Constant
     from armlab.specialise import closed_form
 
     robot = ordinary_arm()

@@ -111,7 +111,7 @@ def test_the_default_data_is_bounded_and_results_do_not_depend_on_it():
 def test_nothing_is_written_into_a_robot():
     from armlab.control.base import Signal
     from armlab.control.joint_space import JointInverseDynamics
-    from armlab.references import Constant
+    from armlab.references.joint import Constant
     from armlab.simulation import simulate
     from armlab.specialise import closed_form_module
 

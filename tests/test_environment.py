@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from armlab.environment import EnvironmentSpecError, FreeSpace, PlanarWall, Spring
+from armlab.simulation.environment import EnvironmentSpecError, FreeSpace, PlanarWall, Spring
 from armlab.spatial import rot_x, rot_y, rot_z
 
 

@@ -5,7 +5,6 @@ import pytest
 from numba import njit, typeof, types
 
 import armlab
-from armlab.kernels import integrators
 from armlab.kernels.indirect import (
     call_float,
     call_int,
@@ -15,6 +14,7 @@ from armlab.kernels.indirect import (
 )
 from armlab.kernels.packed import borrowed
 from armlab.kernels.plant import forward_dynamics_packed, kinetic_energy_packed, pack_plant
+from armlab.simulation import loop as integrators
 
 VEC = types.float64[::1]
 

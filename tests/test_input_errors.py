@@ -7,9 +7,9 @@ import armlab
 from armlab.cli import main
 from armlab.control.adaptive import SlotineLi1DoF
 from armlab.errors import ArmlabError
-from armlab.references import Sinusoid
-from armlab.results import ResultFileError
+from armlab.references.joint import Sinusoid
 from armlab.simulation import SimulationError
+from armlab.simulation.results import ResultFileError
 
 
 def _one_line_error(capsys):

@@ -13,12 +13,12 @@ from armlab.control.interaction import (
     ImpedanceControl,
     ParallelForcePosition,
 )
-from armlab.environment import Spring
 from armlab.kinematics import geometric_jacobian
+from armlab.references.task import ForceReference, PoseReference
 from armlab.robots import load_robot
 from armlab.simulation import SimulationDiverged, simulate
+from armlab.simulation.environment import Spring
 from armlab.spatial import euler_matrix, rot_z
-from armlab.task_references import ForceReference, PoseReference
 from pinocchio_model import armlab_v, pinocchio_model, pinocchio_q
 
 PRP = load_robot("prp")

@@ -6,7 +6,7 @@ import pytest
 import armlab
 from armlab.control.base import ProtocolError
 from armlab.control.joint_space import JointInverseDynamics, JointPDGravity
-from armlab.references import Constant, Sinusoid, ViaPoints
+from armlab.references.joint import Constant, Sinusoid, ViaPoints
 from armlab.simulation import simulate
 
 PRP = armlab.load_robot("prp")

@@ -16,11 +16,11 @@ from numba.core.errors import TypingError
 import armlab
 from armlab.control.adaptive import SlotineLi
 from armlab.control.base import Controller, Signal
-from armlab.environment import FreeSpace, PlanarWall, Spring
-from armlab.kernels import integrators
-from armlab.references import Sinusoid
+from armlab.references.joint import Sinusoid
 from armlab.scenarios import bundled_scenario_names, load_scenario
+from armlab.simulation import loop as integrators
 from armlab.simulation import simulate
+from armlab.simulation.environment import FreeSpace, PlanarWall, Spring
 
 PRP = armlab.load_robot("prp")
 

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from armlab.references import (
+from armlab.references.joint import (
     Constant,
     Ramp,
     ReferenceSpecError,

@@ -12,7 +12,6 @@ import pytest
 from armlab.cli import main
 from armlab.control.joint_space import JointPDGravity
 from armlab.registry import scenario_type, scenario_types
-from armlab.results import SimulationResult
 from armlab.scenarios import (
     ScenarioFileError,
     bundled_scenario_names,
@@ -20,6 +19,7 @@ from armlab.scenarios import (
     load_scenario_file,
     scenario_path,
 )
+from armlab.simulation.results import SimulationResult
 
 NAMES = bundled_scenario_names()
 JOINT_SPACE = [n for n in NAMES if n[:3] in ("a6_", "a7_", "a8_")]
@@ -215,8 +215,8 @@ def test_string_options_of_every_kind_of_table_load(tmp_path):
 
 
 def test_names_are_looked_up_among_the_subclasses_of_the_base_a_table_asks_for():
-    from armlab.disturbances import ConstantTorque, TorqueDisturbance
-    from armlab.references import Constant, JointReference
+    from armlab.references.joint import Constant, JointReference
+    from armlab.simulation.disturbances import ConstantTorque, TorqueDisturbance
 
     assert scenario_types(JointReference)["constant"].cls is Constant
     assert scenario_types(TorqueDisturbance)["constant"].cls is ConstantTorque

@@ -10,10 +10,11 @@ from numba import njit
 import armlab
 from armlab.control.adaptive import SlotineLi1DoF
 from armlab.control.joint_space import JointInverseDynamics, JointPDGravity
-from armlab.disturbances import ConstantTorque, QuadraticFriction, SinusoidalTorque, StepTorque
-from armlab.references import Constant, Sinusoid
-from armlab.results import SimulationResult
-from armlab.simulation import SimulationDiverged, SimulationError, _own_entry, simulate, simulate_batch
+from armlab.references.joint import Constant, Sinusoid
+from armlab.simulation import SimulationDiverged, SimulationError, simulate, simulate_batch
+from armlab.simulation.disturbances import ConstantTorque, QuadraticFriction, SinusoidalTorque, StepTorque
+from armlab.simulation.results import SimulationResult
+from armlab.simulation.simulator import _own_entry
 
 PRP = armlab.load_robot("prp")
 LINK1 = armlab.load_robot("link1")

@@ -11,9 +11,9 @@ from armlab.kernels.task_space import (
     task_workspace,
 )
 from armlab.model.robot import DHRow, Inertial, Joint, Link, Robot
+from armlab.references.task import PoseReference, path_singular_values
 from armlab.robots import load_robot
 from armlab.spatial import ZYZ, euler_matrix, rot_x, rot_z
-from armlab.task_references import PoseReference, path_singular_values
 
 
 def six_dof_arm() -> Robot:

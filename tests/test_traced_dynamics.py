@@ -13,7 +13,7 @@ import armlab
 from armlab.control.joint_space import JointInverseDynamics
 from armlab.kernels import dynamics as kernels
 from armlab.kernels.plant import pack_plant
-from armlab.references import ViaPoints
+from armlab.references.joint import ViaPoints
 from armlab.simulation import simulate
 from armlab.specialise import LAGRANGE_MAX_JOINTS, closed_form, closed_form_module
 from armlab.specialise.traced import TracedBranch, _objects, _Tape, _Tracer, traced_source

@@ -161,7 +161,7 @@ def test_animation_frames_are_the_frames_of_whole_draws():
 def _synthetic_result(limit=2.0):
     """A hand-made SimulationResult: first-order error decay e(t) = e0 exp(−t/T), a torque
     that saturates at ±limit, a contact force reaching f_d."""
-    from armlab.results import SimulationResult
+    from armlab.simulation.results import SimulationResult
 
     t = np.linspace(0.0, 5.0, 5001)
     T = 0.4
@@ -328,7 +328,7 @@ def test_metrics_against_the_closed_form_first_order_decay():
 def test_environment_planes_of_the_seed_environments():
     """A11's spring K = diag(0, 1e4, 0, 10, 0, 0) is stiff along y_0 only: its plane is normal
     to y_0 through the rest position; a wall is drawn as itself; free space has no plane."""
-    from armlab.environment import FreeSpace, PlanarWall, Spring
+    from armlab.simulation.environment import FreeSpace, PlanarWall, Spring
     from armlab.viz.experiments import environment_plane
 
     spring = Spring(stiffness=np.diag([0, 1e4, 0, 10, 0, 0]), rest_position=np.array([0.0, -0.1, 0.5]))
@@ -347,7 +347,7 @@ def _task_result(controller: dict, *, t_final=6.0, sigma_min=0.2, transient=0.0)
     transient of ``transient`` [N] that settles on f_d = −0.5 N along y, the force integral as
     controller state, the compliant frame p_t of admittance control, and the controller
     description ``controller`` (its ``type`` and ``frame`` choose the figures' wording)."""
-    from armlab.results import SimulationResult
+    from armlab.simulation.results import SimulationResult
 
     t = np.linspace(0.0, t_final, int(1000 * t_final) + 1)
     decay = np.exp(-t / 0.3)[:, None]

@@ -22,18 +22,18 @@ _HOMES = {
     "armlab.control.task_space": ("OperationalInverseDynamics", "OperationalPD"),
     "armlab.dynamics": ("coriolis_matrix", "forward_dynamics", "gravity_torque", "inertia_matrix",
                         "inverse_dynamics", "kinetic_energy", "potential_energy"),
-    "armlab.environment": ("FreeSpace", "PlanarWall", "Spring"),
+    "armlab.simulation.environment": ("FreeSpace", "PlanarWall", "Spring"),
     "armlab.inverse_kinematics": ("UnreachableTargetError", "inverse_kinematics"),
     "armlab.kinematics": ("analytic_jacobian", "forward_kinematics", "geometric_jacobian",
                           "jacobian_dot_qd", "link_frames", "pose_vector"),
     "armlab.model": ("Robot", "RobotFileError"),
     "armlab.model.urdf_io": ("load_urdf", "save_urdf", "to_urdf"),
     "armlab.operational_space": ("operational_space_dynamics",),
-    "armlab.results": ("SimulationResult",),
+    "armlab.simulation.results": ("SimulationResult",),
     "armlab.robots": ("bundled_robot_names", "load_robot"),
     "armlab.simulation": ("SimulationDiverged", "simulate", "simulate_batch"),
     "armlab.spatial": ("RepresentationSingularityError",),
-    "armlab.task_references": ("ForceReference", "PoseReference"),
+    "armlab.references.task": ("ForceReference", "PoseReference"),
 }
 """Where each public name is defined: module → names."""
 

@@ -9,7 +9,7 @@ build them side by side and every later simulation loads them:
 
 * :func:`dynamics_kernels` — the numeric dynamics (RNEA, CRBA, g, bias, the packed plant and
   the public functions) and the closed forms of the given robots (derived, compiled, checked);
-* :func:`loop_and_task_kernels` — the simulation loop (``armlab.kernels.integrators``), the
+* :func:`loop_and_task_kernels` — the simulation loop (``armlab.simulation.loop``), the
   plant's kinematics, joint references, and the task-space kernels of the operational-space
   and interaction controllers.
 
@@ -61,10 +61,10 @@ def dynamics_kernels(robots: list[Robot]) -> None:
 def loop_and_task_kernels(robot: Robot) -> None:
     """Compile the simulation loop, kinematics, references and task-space kernels."""
     from armlab.kernels import task_space as task
-    from armlab.kernels.integrators import compile_shared
     from armlab.kernels.linalg import task_solve_into
-    from armlab.references import Constant, reference_into
-    from armlab.task_references import PoseReference, pose_reference_into
+    from armlab.references.joint import Constant, reference_into
+    from armlab.references.task import PoseReference, pose_reference_into
+    from armlab.simulation.loop import compile_shared
 
     compile_shared()
     n = robot.n

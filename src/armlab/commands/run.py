@@ -7,7 +7,7 @@ import sys
 import time
 from pathlib import Path
 
-from armlab.results import FORMATS
+from armlab.simulation.results import FORMATS
 
 
 def register(subparsers) -> None:

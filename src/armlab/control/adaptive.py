@@ -42,12 +42,12 @@ import numpy as np
 from numba import njit
 
 from armlab.control.base import Controller, ProtocolError, Signal
+from armlab.control.entry import law_entry, law_views
 from armlab.control.joint_space import _check_reference, gain_matrix
 from armlab.kernels.dynamics import DynamicsWorkspace, make_workspace, rnea_into
-from armlab.kernels.integrators import law_entry, law_views
 from armlab.kernels.packed import borrowed
 from armlab.model.robot import Robot, RobotArrays
-from armlab.references import JointReference, reference_into
+from armlab.references.joint import JointReference, reference_into
 from armlab.registry import scenario_type
 
 PARAMETER_NAMES = ("m", "mcx", "mcy", "mcz", "Ixx", "Ixy", "Ixz", "Iyy", "Iyz", "Izz", "Fv")

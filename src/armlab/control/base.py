@@ -21,7 +21,7 @@ A controller is a **frozen dataclass** subclassing :class:`Controller`.  It hold
 
 It points at its compiled law through the class attribute ``law``: a ``numba.njit``
 function (module-level with ``cache=True``, so that its compile is kept on disk; the
-simulator's loop calls it through its machine address, ``armlab.kernels.integrators``) with
+simulator's loop calls it through its machine address, ``armlab.simulation.loop``) with
 the signature
 
     law(t, q, qd, z, h_e, params, tau_out, zdot_out, signals_out) -> None
@@ -67,10 +67,10 @@ units) — the seed's "scopes".  The simulator adds ``q_des`` etc. only if the c
 them: a controller should log what a user wants to see (references, errors, estimates).
 
 Optionally, the class attribute ``entry`` names the law's *loop entry*, a module-level
-function that the simulation loop calls instead of the law (``armlab.kernels.integrators``).
+function that the simulation loop calls instead of the law (``armlab.simulation.loop``).
 It is written once next to the law, always the same three lines::
 
-    @law_entry(pd_law)                              # armlab.kernels.integrators
+    @law_entry(pd_law)                              # armlab.simulation.loop
     def pd_entry(cp, law, t, work, n, k, s):
         q, qd, z, h_e, tau_out, zdot_out, signals_out = law_views(borrowed(work), n, k, s)
         pd_law(t, q, qd, z, h_e, borrowed(cp[0]), tau_out, zdot_out, signals_out)

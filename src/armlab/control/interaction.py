@@ -53,8 +53,8 @@ from armlab.kernels.task_space import (
     task_workspace,
 )
 from armlab.model.robot import Robot, RobotArrays
+from armlab.references.task import ForceReference, PoseReference, force_reference_into, pose_reference_into
 from armlab.registry import scenario_type
-from armlab.task_references import ForceReference, PoseReference, force_reference_into, pose_reference_into
 
 ALL6 = (0, 1, 2, 3, 4, 5)
 

@@ -14,13 +14,13 @@ import numpy as np
 from numba import njit, types
 
 from armlab.control.base import Controller, ProtocolError, Signal
+from armlab.control.entry import law_entry, law_views
 from armlab.dynamics import packed_copy
 from armlab.kernels.dynamics import DynamicsWorkspace, gravity_into, make_workspace
 from armlab.kernels.indirect import call_none, kernel_address
-from armlab.kernels.integrators import law_entry, law_views
 from armlab.kernels.packed import borrowed
 from armlab.model.robot import Robot, RobotArrays
-from armlab.references import JointReference, reference_into
+from armlab.references.joint import JointReference, reference_into
 from armlab.registry import scenario_type
 from armlab.specialise import ClosedFormUnavailable, choice_problem, inverse_dynamics_kernel
 

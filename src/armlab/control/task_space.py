@@ -1,6 +1,6 @@
 """Operational-space motion control (seed A9, A10; Siciliano et al. §8.6).
 
-Both controllers regulate or track a :class:`~armlab.task_references.PoseReference` Σ_d(t)
+Both controllers regulate or track a :class:`~armlab.references.task.PoseReference` Σ_d(t)
 in one of two task coordinates (``frame``):
 
 * ``"base"`` — x = [p_e; φ_e] in Σ_0 with Euler angles ``euler`` (the seed's ZYZ), error
@@ -48,9 +48,9 @@ from armlab.kernels.task_space import (
     wrench_in_task_into,
 )
 from armlab.model.robot import Robot, RobotArrays
+from armlab.references.task import PoseReference, pose_reference_into
 from armlab.registry import scenario_type
 from armlab.spatial import euler_code, euler_from_matrix
-from armlab.task_references import PoseReference, pose_reference_into
 
 FRAMES = {"desired": RELATIVE, "base": ABSOLUTE}
 

@@ -60,16 +60,16 @@ from pathlib import Path
 
 from armlab.control.adaptive import SlotineLi1DoF
 from armlab.control.base import Controller, Environment
-from armlab.disturbances import TorqueDisturbance
 from armlab.errors import ArmlabError
 from armlab.model.robot import Robot
 from armlab.scenarios.tables import ScenarioFileError, build, integer, numbers, robot
+from armlab.simulation.disturbances import TorqueDisturbance
 from armlab.specialise import choice_problem
 
 # The modules whose classes scenario files name: each registers its own (armlab.registry).
 DECLARING_MODULES = ("armlab.control.joint_space", "armlab.control.adaptive", "armlab.control.task_space",
-                     "armlab.control.interaction", "armlab.environment", "armlab.references",
-                     "armlab.task_references", "armlab.disturbances")
+                     "armlab.control.interaction", "armlab.simulation.environment", "armlab.references",
+                     "armlab.references.task", "armlab.simulation.disturbances")
 for _module in DECLARING_MODULES:
     importlib.import_module(_module)
 

@@ -1,4 +1,4 @@
-"""Which scope figures a :class:`~armlab.results.SimulationResult` gets (the seed's Simulink scopes).
+"""Which scope figures a :class:`~armlab.simulation.SimulationResult` gets (the seed's Simulink scopes).
 
 The figures are chosen from the signals a run logged, by name, so every controller gets the
 plots a control engineer expects without plotting code of its own:

@@ -1,4 +1,4 @@
-"""Drawing the scope figures of a :class:`~armlab.results.SimulationResult` (the seed's Simulink scopes).
+"""Drawing the scope figures of a :class:`~armlab.simulation.SimulationResult` (the seed's Simulink scopes).
 
 Which figures a run gets, and what is in their panels, is :func:`armlab.viz.layout.scope_layout`;
 this module draws them.  Each figure is one column of panels sharing the time axis, which spans

@@ -39,7 +39,7 @@ holds the addresses, in this order (``FN_*``):
     forward_dynamics(pp, q, qd, tau, h_e, qdd_out) -> 0 ok | 1 bad length | 2 B not PD
     kinetic_energy(pp, q, qd) -> T
     measure(pp, q, qd, work, R_0e, p_0e, v_e)
-    disturbance(dist, t, q, qd, tau_d_out)               (``armlab.disturbances``)
+    disturbance(dist, t, q, qd, tau_d_out)               (``armlab.simulation.disturbances``)
 
 The scratch memory is one flat array ``work`` (:func:`work_size`) and the log one flat array
 ``out`` of R rows: the logged quantities (:func:`log_columns`) lie one after the other, each a
@@ -75,7 +75,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, typeof, types
 
-from armlab.disturbances import disturbance_into
+from armlab.control.entry import law_views
 from armlab.kernels.environment import FreeSpaceParams, free_space_law
 from armlab.kernels.indirect import (
     call_float,
@@ -87,6 +87,7 @@ from armlab.kernels.indirect import (
 )
 from armlab.kernels.packed import borrowed, buffer_view
 from armlab.kernels.plant import forward_dynamics_packed, kinetic_energy_packed, measure_packed
+from armlab.simulation.disturbances import disturbance_into
 
 (FN_LAW_ENTRY, FN_LAW, FN_ENV_TRAMPOLINE, FN_ENV, FN_FORWARD_DYNAMICS, FN_KINETIC_ENERGY,
  FN_MEASURE, FN_DISTURBANCE) = range(8)
@@ -247,21 +248,6 @@ def _addresses(law, env_law, cparams, eparams, forward_dynamics, kinetic_energy,
 
 
 @njit(cache=True, inline="always")
-def law_views(work, n, k, s):
-    """(q, qd, z, h_e, tau_out, zdot_out, signals_out): the scratch views a law reads and
-    writes, in the order of its arguments around ``params``.
-
-    They lie first in ``work``, in this order, whatever the rest of the scratch layout: a
-    controller's own entry is compiled into its own module's cache, which numba does not
-    invalidate when this file changes, so what the entries inline is kept fixed (the law
-    ABI).  Changing it means changing the entries' modules too."""
-    f = np.float64
-    return (buffer_view(work, 0, n, f), buffer_view(work, n, n, f), buffer_view(work, 2 * n, k, f),
-            buffer_view(work, 2 * n + k, 6, f), buffer_view(work, 2 * n + k + 6, n, f),
-            buffer_view(work, 3 * n + k + 6, k, f), buffer_view(work, 3 * n + 2 * k + 6, s, f))
-
-
-@njit(cache=True, inline="always")
 def scratch_views(work, n, k, s):
     """The named scratch views of ``work`` (see :func:`work_size`): the law's first
     (:func:`law_views`), then the loop's own."""
@@ -289,17 +275,6 @@ def scratch_views(work, n, k, s):
     o += 4 * m
     meas = buffer_view(work, o, 18 * n, f)
     return (q, qd, z, tau_c, tau_a, tau_d, tau_p, h_e, zdot, sig, R_0e, p_0e, v_e, qdd, xt, K, meas)
-
-
-def law_entry(law):
-    """Decorator of a controller's own entry (see the module docstring) for ``law``: compiled
-    like the laws, and marked with the law it inlines (the simulator uses it only with that
-    law)."""
-    def wrap(function):
-        entry = njit(cache=True)(function)
-        entry.inlined_law = law
-        return entry
-    return wrap
 
 
 @njit(cache=True)

@@ -31,7 +31,7 @@ import numpy as np
 from numba import njit
 
 from armlab.errors import ArmlabError
-from armlab.references import quintic
+from armlab.references.joint import quintic
 from armlab.registry import scenario_type
 from armlab.spatial import euler_matrix
 

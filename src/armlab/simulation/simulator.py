@@ -7,12 +7,12 @@ The plant is the true :class:`~armlab.model.robot.Robot`; the controller carries
     τ = h(t, q, q̇, z, h_e),   ż = f(t, q, q̇, z, h_e)                                       (C0)
 
 with sat the per-joint clip at ``torque_limit`` and τ_d the disturbances of
-``armlab.disturbances`` (S2).
+``armlab.simulation.disturbances`` (S2).
 
 Integrators
 -----------
 ``method="rk4"``: fixed-step classical Runge–Kutta (Simulink's ode4, S3); the whole loop is one
-compiled function (``armlab.kernels.integrators``) that calls the controller's law, the
+compiled function (``armlab.simulation.loop``) that calls the controller's law, the
 environment and the plant's dynamics through their machine addresses, so each is compiled once
 and cached on disk: the first run of a new controller class compiles its law (seconds), later
 runs and later processes load it.
@@ -21,7 +21,7 @@ runs and later processes load it.
 ``rtol``/``atol``) calling the *same* compiled right-hand side; the accuracy reference.
 Signals are recomputed after integration on the output grid t_j = j·dt.
 
-Logging: see ``armlab.kernels.integrators`` — the RK4 loop writes row j while it integrates
+Logging: see ``armlab.simulation.loop`` — the RK4 loop writes row j while it integrates
 (the stage-1 evaluation at (t_j, x_j)), without allocation; ``log_every`` thins the rows.
 
 Sampled control: ``control_period`` T_c (a multiple of dt) runs the law every T_c with
@@ -41,12 +41,12 @@ import time
 import numpy as np
 
 from armlab.control.base import Controller, Environment, ProtocolError, Signal
-from armlab.disturbances import encode_disturbances
 from armlab.dynamics import packed_copy
 from armlab.errors import ArmlabError
-from armlab.kernels import integrators
 from armlab.kernels.environment import FreeSpaceParams, free_space_law
-from armlab.results import SimulationResult
+from armlab.simulation import loop as integrators
+from armlab.simulation.disturbances import encode_disturbances
+from armlab.simulation.results import SimulationResult
 from armlab.specialise import ClosedFormUnavailable, choice_problem, plant_kernels
 
 STATUS = {1: "non-finite state", 2: "joint limit exceeded", 3: "runaway kinetic energy",
