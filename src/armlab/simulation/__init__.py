@@ -8,14 +8,23 @@
 * :mod:`~armlab.simulation.disturbances` — torque disturbances τ_d(t, q, q̇).
 """
 
-from armlab.simulation.results import SimulationResult
-from armlab.simulation.simulator import (
-    STATUS,
-    SimulationDiverged,
-    SimulationError,
-    simulate,
-    simulate_batch,
-)
+from __future__ import annotations
 
-__all__ = ["STATUS", "SimulationDiverged", "SimulationError", "SimulationResult", "simulate",
-           "simulate_batch"]
+import importlib
+
+_HOMES = {"SimulationResult": "armlab.simulation.results", "STATUS": "armlab.simulation.simulator",
+          "SimulationDiverged": "armlab.simulation.simulator",
+          "SimulationError": "armlab.simulation.simulator", "simulate": "armlab.simulation.simulator",
+          "simulate_batch": "armlab.simulation.simulator"}
+
+__all__ = sorted(_HOMES)
+
+
+def __getattr__(name: str):
+    """The public names, imported on first use: reading a result file (``results``) needs
+    neither numba nor the compiled loop (as ``armlab`` itself, see its ``__getattr__``)."""
+    if name not in _HOMES:
+        raise AttributeError(f"module 'armlab.simulation' has no attribute {name!r}")
+    value = getattr(importlib.import_module(_HOMES[name]), name)
+    globals()[name] = value
+    return value
