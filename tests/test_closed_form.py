@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import armlab
-from armlab.control.base import ProtocolError
+from armlab.errors import ControllerSpecError
 from armlab.kernels.plant import pack_plant
 from armlab.scenarios import load_scenario
 from armlab.simulation import SimulationError, simulate
@@ -114,7 +114,7 @@ def test_bad_choices_and_unavailable_closed_forms_are_named(monkeypatch):
     with pytest.raises(SimulationError, match="dynamics: 'fast'"):
         simulate(scenario.plant, scenario.controller, q0=np.zeros(3), t_final=0.01, dt=1e-3,
                  dynamics="fast")
-    with pytest.raises(ProtocolError, match="dynamics"):
+    with pytest.raises(ControllerSpecError, match="dynamics"):
         replace(scenario.controller, dynamics="fast")
     robot = armlab.load_robot("prp")
     # A robot whose closed form disagrees with its kernels is refused, with the reason kept.

@@ -6,6 +6,7 @@ import pytest
 import armlab
 from armlab.control.base import ProtocolError
 from armlab.control.joint_space import JointInverseDynamics, JointPDGravity
+from armlab.errors import ControllerSpecError
 from armlab.references.joint import Constant, Sinusoid, ViaPoints
 from armlab.simulation import simulate
 
@@ -91,9 +92,13 @@ def test_high_gain_saturation_slows_joint_1_only():
 
 
 def test_gains_must_be_symmetric_positive_semidefinite():
-    with pytest.raises(ProtocolError, match="kp"):
+    # Bad values are ValueErrors (a negative gain once raised a TypeError).
+    with pytest.raises(ControllerSpecError, match="kp") as bad_gain:
         JointPDGravity(PRP, Constant(TARGET), [1, -1, 1], 1.0)
-    with pytest.raises(ProtocolError, match="compensation"):
+    assert isinstance(bad_gain.value, ValueError) and not isinstance(bad_gain.value, TypeError)
+    with pytest.raises(ControllerSpecError, match="kp: a gain must be symmetric"):
+        JointPDGravity(PRP, Constant(TARGET), [[1, 2, 0], [0, 1, 0], [0, 0, 1]], 1.0)
+    with pytest.raises(ControllerSpecError, match="compensation"):
         JointPDGravity(PRP, Constant(TARGET), 1.0, 1.0, "sometimes")
     with pytest.raises(ProtocolError, match="reference"):
         JointInverseDynamics(PRP, Constant([0, 0]), 1.0, 1.0)

@@ -45,7 +45,7 @@ import threading
 import numpy as np
 from numba import njit, types
 
-from armlab.errors import ArmlabError
+from armlab.errors import SingularInertiaError
 from armlab.kernels.dynamics import FASTMATH, coriolis_matrix_into, mass_matrix_inline, rnea_into
 from armlab.kernels.energy import potential_energy_kernel
 from armlab.kernels.plant import (
@@ -62,10 +62,6 @@ from armlab.specialise import DYNAMICS_CHOICES, chosen_module
 NUMERIC = "numeric"
 # How many robots keep a default DynamicsData (the oldest is dropped first).
 DEFAULT_DATA_ROBOTS = 32
-
-
-class SingularInertiaError(ArmlabError):
-    """B(q) is not positive definite (a link without mass moved by a joint)."""
 
 
 class DynamicsData:

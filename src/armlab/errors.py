@@ -1,5 +1,142 @@
-"""Exceptions armlab raises on purpose; the CLI prints their one-line message, never a traceback."""
+"""Every exception armlab raises on purpose, in one tree; the CLI prints their one-line message,
+never a traceback.
+
+Each class is also the builtin a Python programmer would catch for the same fault, so
+``except ValueError`` keeps working around armlab calls:
+
+    ArmlabError
+    ├── InputError (ValueError)            a value armlab cannot use; the message names the field
+    │   ├── FileFieldError                 … read from a file: ``file: field: reason``
+    │   │   ├── RobotFileError             robot TOML / URDF files
+    │   │   └── ScenarioFileError          scenario TOML files
+    │   ├── ResultFileError                result files (``file: reason``)
+    │   ├── SpecError                      parameters that cannot define the thing asked for
+    │   │   ├── ControllerSpecError        gains, options, models of a controller
+    │   │   ├── EnvironmentSpecError       springs, walls
+    │   │   ├── ReferenceSpecError         joint references
+    │   │   ├── TaskReferenceError         pose and force references
+    │   │   ├── DisturbanceSpecError       torque disturbances
+    │   │   ├── TaskSelectionError         task components of a robot
+    │   │   └── SimulationError            settings of ``simulate``
+    │   ├── UnreachableTargetError         inverse kinematics without a solution
+    │   ├── RepresentationSingularityError Euler angles at their singularity
+    │   ├── SingularInertiaError           B(q) not positive definite (a massless moving link)
+    │   └── ReportError, ScopeError, AnimationError   what a report, plot or animation needs
+    ├── ProtocolError (TypeError)          an object that does not follow a protocol (a law that
+    │   └── IndirectCallError              is not compiled, a callee with the wrong return type)
+    ├── ClosedFormUnavailable (RuntimeError)   no usable generated dynamics for a robot (says why)
+    ├── SimulationDiverged (RuntimeError)  the closed loop diverged; ``.result`` keeps the data
+    └── CommandError                       a command-line argument armlab cannot use
+"""
+
+from __future__ import annotations
 
 
 class ArmlabError(Exception):
     """Base class of every error armlab reports to a user (bad input, divergence, …)."""
+
+
+class InputError(ArmlabError, ValueError):
+    """A value armlab cannot use; the message names the field and says what is wrong."""
+
+
+class FileFieldError(InputError):
+    """A file field that cannot be used; ``str()`` is ``file: field: reason``."""
+
+    def __init__(self, file, field: str, reason: str):
+        self.file, self.field, self.reason = str(file), field, reason
+        super().__init__(f"{self.file}: {field}: {reason}")
+
+
+class RobotFileError(FileFieldError):
+    """A robot file that cannot describe a robot."""
+
+
+class ScenarioFileError(FileFieldError):
+    """A scenario file that cannot be run."""
+
+
+class ResultFileError(InputError):
+    """A result file that cannot be written or read; the message is ``file: reason``."""
+
+
+class SpecError(InputError):
+    """Parameters that cannot define what was asked for (names the field)."""
+
+
+class ControllerSpecError(SpecError):
+    """Controller parameters that cannot define the law: gains, options, models."""
+
+
+class EnvironmentSpecError(SpecError):
+    """Environment parameters that do not describe a physical environment."""
+
+
+class ReferenceSpecError(SpecError):
+    """A joint reference whose numbers cannot describe a trajectory."""
+
+
+class TaskReferenceError(SpecError):
+    """A pose or force reference that cannot be evaluated."""
+
+
+class DisturbanceSpecError(SpecError):
+    """A torque disturbance that cannot be evaluated."""
+
+
+class TaskSelectionError(SpecError):
+    """Task components a robot cannot control."""
+
+
+class SimulationError(SpecError):
+    """Bad simulation settings (names the argument)."""
+
+
+class UnreachableTargetError(InputError):
+    """An inverse-kinematics target outside the workspace."""
+
+
+class RepresentationSingularityError(InputError):
+    """Euler angles asked for at their representation singularity."""
+
+
+class SingularInertiaError(InputError):
+    """B(q) is not positive definite (a link without mass moved by a joint)."""
+
+
+class ReportError(InputError):
+    """A report that cannot be made from what it was given."""
+
+
+class ScopeError(InputError):
+    """A scope figure that cannot be drawn from a result."""
+
+
+class AnimationError(InputError):
+    """An animation that cannot be made from a result."""
+
+
+class ProtocolError(ArmlabError, TypeError):
+    """A controller, environment or law that does not follow the protocol of
+    :mod:`armlab.control.base` (a law that is not a numba.njit function, an object of the wrong
+    kind where a reference or controller is expected)."""
+
+
+class IndirectCallError(ProtocolError):
+    """A compiled function does not return what its indirect caller expects."""
+
+
+class ClosedFormUnavailable(ArmlabError, RuntimeError):
+    """The closed form of a robot cannot be used (says why)."""
+
+
+class SimulationDiverged(ArmlabError, RuntimeError):
+    """The closed loop diverged; ``result`` holds the data up to the last good step."""
+
+    def __init__(self, message: str, result):
+        super().__init__(message)
+        self.result = result
+
+
+class CommandError(ArmlabError):
+    """A command-line argument that armlab cannot use; printed as one line."""

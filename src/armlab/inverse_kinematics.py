@@ -33,7 +33,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
-from armlab.errors import ArmlabError
+from armlab.errors import UnreachableTargetError
 from armlab.kernels.dynamics import cholesky_solve_inplace
 from armlab.kernels.kinematics import (
     KinematicsWorkspace,
@@ -47,23 +47,6 @@ from armlab.spatial import euler_code, euler_matrix, rotation_error, rotation_er
 
 METHODS = ("auto", "closed_form", "dls")
 _STRUCTURE_TOL = 1e-9
-
-
-class UnreachableTargetError(ArmlabError, ValueError):
-    """No joint configuration (inside the joint limits, if respected) reaches the target.
-
-    Attributes: ``reason`` (``"out of reach"``, ``"joint limits"`` or ``"orientation"``),
-    ``best_q`` (n,) the best attempt, ``position_error`` [m] and ``orientation_error`` [rad]
-    of that attempt.
-    """
-
-    def __init__(self, message: str, *, reason: str, best_q=None, position_error=float("nan"),
-                 orientation_error=float("nan")):
-        super().__init__(message)
-        self.reason = reason
-        self.best_q = None if best_q is None else np.asarray(best_q, dtype=float)
-        self.position_error = float(position_error)
-        self.orientation_error = float(orientation_error)
 
 
 # ------------------------------------------------------------------------------ targets

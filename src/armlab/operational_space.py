@@ -33,13 +33,9 @@ import numpy as np
 from scipy.linalg import cho_factor, cho_solve
 
 from armlab.dynamics import coriolis_matrix, gravity_torque, inertia_matrix
-from armlab.errors import ArmlabError
+from armlab.errors import TaskSelectionError
 from armlab.kinematics import analytic_jacobian, geometric_jacobian, jacobian_dot_qd
 from armlab.model.robot import Robot
-
-
-class TaskSelectionError(ArmlabError, ValueError):
-    """The requested task rows do not fit the robot."""
 
 
 @dataclass(frozen=True)

@@ -21,7 +21,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from armlab.errors import ArmlabError
+from armlab.errors import RepresentationSingularityError
 
 EULER_CONVENTIONS = ("zyz", "rpy")
 ZYZ, RPY = 0, 1
@@ -31,10 +31,6 @@ EULER_SINGULAR_EPS = 1e-12
 
 # Division by zero gives inf/nan instead of raising.
 compiled = njit(cache=True, error_model="numpy")
-
-
-class RepresentationSingularityError(ArmlabError, ValueError):
-    """The Euler-angle rate matrix T(φ) is singular (det T ≈ 0) at the requested orientation."""
 
 
 def rot_x(angle: float) -> np.ndarray:

@@ -8,11 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from armlab.errors import ArmlabError
-
-
-class CommandError(ArmlabError):
-    """A command-line argument that armlab cannot use; printed as one line."""
+from armlab.errors import CommandError
 
 
 def format_table(headers: list[str], rows: list[list[str]], indent: str = "") -> str:

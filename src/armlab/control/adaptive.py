@@ -43,7 +43,9 @@ from numba import njit
 
 from armlab.control.base import Controller, ProtocolError, Signal
 from armlab.control.entry import law_entry, law_views
-from armlab.control.joint_space import _check_reference, gain_matrix
+from armlab.control.gains import gain_matrix
+from armlab.control.joint_space import _check_reference
+from armlab.errors import ControllerSpecError
 from armlab.kernels.dynamics import DynamicsWorkspace, make_workspace, rnea_into
 from armlab.kernels.packed import borrowed
 from armlab.model.robot import Robot, RobotArrays
@@ -129,12 +131,12 @@ class SlotineLi1DoF(Controller):
         object.__setattr__(self, "gamma", gain_matrix(self.gamma, 3, "gamma", positive_definite=True))
         estimate = np.asarray(self.initial_estimate, dtype=float)
         if estimate.shape != (3,):
-            raise ProtocolError("initial_estimate: expected 3 numbers [I, F, G]")
+            raise ControllerSpecError("initial_estimate: expected 3 numbers [I, F, G]")
         object.__setattr__(self, "initial_estimate", estimate)
         for name in ("kd", "lam"):
             value = np.asarray(getattr(self, name), dtype=float)
             if value.size != 1 or not np.isfinite(value).all() or float(value.reshape(-1)[0]) <= 0:
-                raise ProtocolError(f"{name}: must be one positive number, got {getattr(self, name)!r}")
+                raise ControllerSpecError(f"{name}: must be one positive number, got {getattr(self, name)!r}")
             object.__setattr__(self, name, float(value.reshape(-1)[0]))
 
     def params(self):

@@ -143,12 +143,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from armlab.errors import ArmlabError
-
-
-class ProtocolError(ArmlabError, TypeError):
-    """A controller or environment that does not follow the protocol of this module."""
-
+from armlab.errors import ProtocolError
 
 _JOINT_UNITS = {"position": ("m", "rad"), "error": ("m", "rad"), "velocity": ("m/s", "rad/s"),
                 "acceleration": ("m/s²", "rad/s²"), "effort": ("N", "N·m")}

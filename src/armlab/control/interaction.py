@@ -27,13 +27,13 @@ import numpy as np
 from numba import njit
 
 from armlab.control.base import Controller, Signal
+from armlab.control.gains import gain_matrix
 from armlab.control.task_space import (
     COMPONENT_LABELS,
     ControllerSpecError,
     OperationalInverseDynamicsParams,
     OperationalPD,
     TaskController,
-    gain_matrix,
     inverse_dynamics_law,
     jacobian_signals,
     log_pose_signals,
@@ -98,7 +98,7 @@ class ImpedanceControl(TaskController):
     law = inverse_dynamics_law
 
     def params(self) -> OperationalInverseDynamicsParams:
-        mass = gain_matrix(self.mass, self.task, "mass", positive_definite=True)
+        mass = gain_matrix(self.mass, 6, components=self.task, field="mass", positive_definite=True)
         return OperationalInverseDynamicsParams(**self._common(), mass_inverse=np.linalg.inv(mass),
                                                 with_force=1.0, damping=float(self.damping))
 
@@ -202,10 +202,11 @@ class AdmittanceControl(TaskController):
     def params(self) -> AdmittanceParams:
         if self.frame != "desired":
             raise ControllerSpecError("frame: admittance control works in Σ_d ('desired')")
-        mass_t = gain_matrix(self.mass_t, ALL6, "mass_t", positive_definite=True)
+        mass_t = gain_matrix(self.mass_t, 6, components=ALL6, field="mass_t", positive_definite=True)
         return AdmittanceParams(**self._common(), mass_t_inverse=np.linalg.inv(mass_t),
-                                kd_t=gain_matrix(self.kd_t, ALL6, "kd_t"),
-                                kp_t=gain_matrix(self.kp_t, ALL6, "kp_t"), frame_t=np.zeros(24),
+                                kd_t=gain_matrix(self.kd_t, 6, components=ALL6, field="kd_t"),
+                                kp_t=gain_matrix(self.kp_t, 6, components=ALL6, field="kp_t"),
+                                frame_t=np.zeros(24),
                                 h_d=np.zeros(6), zdd=np.zeros(6), damping=float(self.damping))
 
     def initial_state(self) -> np.ndarray:
@@ -317,19 +318,20 @@ class _ForceBase(Controller):
             raise ControllerSpecError(f"damping: a 3-component position task on a {self.model.n}-joint "
                                       f"robot has no exact inverse; give damping > 0")
         for name in ("kp", "kd", "kf", "ki"):
-            gain_matrix(getattr(self, name), (0, 1, 2), name)
-        gain_matrix(self.mass, (0, 1, 2), "mass", positive_definite=True)
+            gain_matrix(getattr(self, name), 6, components=(0, 1, 2), field=name)
+        gain_matrix(self.mass, 6, components=(0, 1, 2), field="mass", positive_definite=True)
 
     def _params(self, reference: PoseReference, position_feedback: float) -> ForceMotionParams:
         task = (0, 1, 2)
-        mass = gain_matrix(self.mass, task, "mass", positive_definite=True)
+        mass = gain_matrix(self.mass, 6, components=task, field="mass", positive_definite=True)
         return ForceMotionParams(
             model=self.model.arrays, workspace=make_workspace(self.model.n),
             task_workspace=task_workspace(self.model.n, 3), reference=np.array(reference.data),
-            task=np.array(task, dtype=np.int64), kp=gain_matrix(self.kp, task, "kp"),
-            kd=gain_matrix(self.kd, task, "kd"), mass_inverse=np.linalg.inv(mass),
-            force_reference=np.array(self.force.data), kf=gain_matrix(self.kf, task, "kf"),
-            ki=gain_matrix(self.ki, task, "ki"), position_feedback=position_feedback,
+            task=np.array(task, dtype=np.int64), kp=gain_matrix(self.kp, 6, components=task, field="kp"),
+            kd=gain_matrix(self.kd, 6, components=task, field="kd"), mass_inverse=np.linalg.inv(mass),
+            force_reference=np.array(self.force.data),
+            kf=gain_matrix(self.kf, 6, components=task, field="kf"),
+            ki=gain_matrix(self.ki, 6, components=task, field="ki"), position_feedback=position_feedback,
             damping=float(self.damping), f_d=np.zeros(3), x_f=np.zeros(3))
 
     k = 3
@@ -393,7 +395,7 @@ class ForceControl(_ForceBase):
             target = np.asarray(self.x_F0, dtype=float)
             if target.shape != (3,) or not np.all(np.isfinite(target)):
                 raise ControllerSpecError("x_F0: must be a finite position (3,) [m]")
-            ki = gain_matrix(self.ki, (0, 1, 2), "ki")
+            ki = gain_matrix(self.ki, 6, components=(0, 1, 2), field="ki")
             z0 = np.linalg.lstsq(ki, target, rcond=None)[0]
             if np.abs(ki @ z0 - target).max() > 1e-9 * max(1.0, np.abs(target).max()):
                 raise ControllerSpecError("x_F0: must lie in the range of ki (the integral gain)")

@@ -15,7 +15,9 @@ from numba import njit, types
 
 from armlab.control.base import Controller, ProtocolError, Signal
 from armlab.control.entry import law_entry, law_views
+from armlab.control.gains import gain_matrix
 from armlab.dynamics import packed_copy
+from armlab.errors import ControllerSpecError
 from armlab.kernels.dynamics import DynamicsWorkspace, gravity_into, make_workspace
 from armlab.kernels.indirect import call_none, kernel_address
 from armlab.kernels.packed import borrowed
@@ -25,26 +27,6 @@ from armlab.registry import scenario_type
 from armlab.specialise import ClosedFormUnavailable, choice_problem, inverse_dynamics_kernel
 
 COMPENSATION = {"online": 0, "desired": 1, "none": 2}
-
-
-def gain_matrix(value, n: int, field: str, *, positive_definite: bool = False) -> np.ndarray:
-    """A (n, n) gain from a number, a (n,) diagonal or a (n, n) matrix; must be symmetric
-    positive semi-definite (positive definite with ``positive_definite``)."""
-    array = np.asarray(value, dtype=float)
-    if array.ndim == 0 or array.shape == (1,):
-        array = np.eye(n) * float(array.reshape(-1)[0])
-    elif array.shape == (n,):
-        array = np.diag(array)
-    if array.shape != (n, n) or not np.all(np.isfinite(array)):
-        raise ProtocolError(f"{field}: expected a number, {n} numbers or a {n}×{n} matrix, "
-                            f"got shape {np.shape(value)}")
-    if not np.allclose(array, array.T):
-        raise ProtocolError(f"{field}: a gain must be symmetric")
-    smallest = np.linalg.eigvalsh(0.5 * (array + array.T)).min()
-    if smallest < 0 or (positive_definite and smallest <= 0):
-        kind = "positive definite" if positive_definite else "positive semi-definite"
-        raise ProtocolError(f"{field}: a gain must be {kind} (smallest eigenvalue {smallest:g})")
-    return np.ascontiguousarray(array)
 
 
 def _check_reference(reference, n, field="reference"):
@@ -137,7 +119,7 @@ class JointPDGravity(Controller):
         n = self.model.n
         _check_reference(self.reference, n)
         if self.compensation not in COMPENSATION:
-            raise ProtocolError(f"compensation: {self.compensation!r} is not one of "
+            raise ControllerSpecError(f"compensation: {self.compensation!r} is not one of "
                                 f"{', '.join(COMPENSATION)}")
         object.__setattr__(self, "kp", gain_matrix(self.kp, n, "kp"))
         object.__setattr__(self, "kd", gain_matrix(self.kd, n, "kd"))
@@ -244,7 +226,7 @@ class JointInverseDynamics(Controller):
         object.__setattr__(self, "kp", gain_matrix(self.kp, n, "kp"))
         object.__setattr__(self, "kd", gain_matrix(self.kd, n, "kd"))
         if choice_problem(self.dynamics):
-            raise ProtocolError(f"dynamics: {choice_problem(self.dynamics)}")
+            raise ControllerSpecError(f"dynamics: {choice_problem(self.dynamics)}")
 
     @classmethod
     def from_poles(cls, model: Robot, reference: JointReference, omega_n, zeta=1.0):
@@ -259,7 +241,7 @@ class JointInverseDynamics(Controller):
         try:
             kernel = inverse_dynamics_kernel(self.model, self.dynamics, "dynamics")
         except ClosedFormUnavailable as error:
-            raise ProtocolError(f"dynamics: {error}") from None
+            raise ControllerSpecError(f"dynamics: {error}") from None
         diagonal = not (np.any(self.kp - np.diag(np.diag(self.kp)))
                         or np.any(self.kd - np.diag(np.diag(self.kd))))
         return JointInverseDynamicsParams(

@@ -27,7 +27,8 @@ import numpy as np
 from numba import njit
 
 from armlab.control.base import Controller, Signal
-from armlab.errors import ArmlabError
+from armlab.control.gains import gain_matrix
+from armlab.errors import ControllerSpecError
 from armlab.kernels.dynamics import (
     DynamicsWorkspace,
     bias_into,
@@ -55,35 +56,8 @@ from armlab.spatial import euler_code, euler_from_matrix
 FRAMES = {"desired": RELATIVE, "base": ABSOLUTE}
 
 
-class ControllerSpecError(ArmlabError, ValueError):
-    """Controller parameters that cannot define the law (names the field)."""
-
-
 class SingularityWarning(UserWarning):
     """The task Jacobian came close to singular during a run."""
-
-
-def gain_matrix(value, task, name: str, *, positive_definite: bool = False) -> np.ndarray:
-    """A (k, k) gain for the task components ``task`` from a scalar, a k- or 6-vector (its
-    diagonal) or a (k, k) / (6, 6) matrix (sliced to the task)."""
-    k = len(task)
-    array = np.asarray(value, dtype=float)
-    if array.ndim == 0:
-        array = float(array) * np.eye(k)
-    elif array.ndim == 1:
-        if array.shape[0] not in (k, 6):
-            raise ControllerSpecError(f"{name}: need {k} (task) or 6 diagonal entries, got {array.shape[0]}")
-        array = np.diag(array[list(task)] if array.shape[0] == 6 and k != 6 else array)
-    elif array.shape == (6, 6) and k != 6:
-        array = array[np.ix_(task, task)]
-    if array.shape != (k, k):
-        raise ControllerSpecError(f"{name}: must be ({k}, {k}) for the task {tuple(task)}, got {array.shape}")
-    if not np.all(np.isfinite(array)):
-        raise ControllerSpecError(f"{name}: must be finite")
-    if positive_definite and (np.abs(array - array.T).max() > 1e-12 * max(1.0, np.abs(array).max())
-                              or np.linalg.eigvalsh(array).min() <= 0.0):
-        raise ControllerSpecError(f"{name}: must be symmetric positive definite")
-    return np.ascontiguousarray(array)
 
 
 COMPONENT_LABELS = ("x", "y", "z", "phi1", "phi2", "phi3")
@@ -133,7 +107,8 @@ class TaskController(Controller):
         object.__setattr__(self, "_derived", {
             "task": np.array(task, dtype=np.int64), "convention": convention,
             "angles": np.array(angles, dtype=float), "mode": FRAMES[self.frame],
-            "kp": gain_matrix(self.kp, task, "kp"), "kd": gain_matrix(self.kd, task, "kd")})
+            "kp": gain_matrix(self.kp, 6, "kp", components=task),
+            "kd": gain_matrix(self.kd, 6, "kd", components=task)})
 
     needs_inverse = False
 

@@ -25,7 +25,7 @@ from numba import types
 from numba.core import cgutils
 from numba.extending import intrinsic
 
-from armlab.errors import ArmlabError
+from armlab.errors import IndirectCallError
 
 __all__ = ["call_bool", "call_float", "call_int", "call_none", "call_status", "kernel_address",
            "stack_address"]
@@ -83,10 +83,6 @@ _ADDRESSES: dict = {}
 # The same lookups by identity, for callers that pass the same argument-type tuple every time
 # (a module constant): hashing numba types costs microseconds a lookup, on every simulation.
 _BY_IDENTITY: dict = {}
-
-
-class IndirectCallError(ArmlabError, TypeError):
-    """A compiled function does not return what its indirect caller expects."""
 
 
 def kernel_address(dispatcher, argtypes: tuple, restype) -> int:

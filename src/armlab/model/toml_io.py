@@ -17,19 +17,10 @@ from pathlib import Path
 
 import numpy as np
 
-from armlab.errors import ArmlabError
+from armlab.errors import RobotFileError
 from armlab.model.inertia import box_inertia, cylinder_inertia, inertia_problem, sphere_inertia, steiner
 from armlab.model.robot import DHRow, Friction, Inertial, Joint, Link, Motor, Robot
 from armlab.spatial import rpy_matrix, skew, transform
-
-
-class RobotFileError(ArmlabError, ValueError):
-    """A robot file that cannot describe a robot; ``str()`` is ``file: field: reason``."""
-
-    def __init__(self, file: str, field: str, reason: str):
-        self.file, self.field, self.reason = str(file), field, reason
-        super().__init__(f"{self.file}: {field}: {reason}")
-
 
 _BINARY = {ast.Add: operator.add, ast.Sub: operator.sub, ast.Mult: operator.mul,
            ast.Div: operator.truediv, ast.Pow: operator.pow}

@@ -27,14 +27,10 @@ from functools import cached_property
 import numpy as np
 from numba import njit
 
-from armlab.errors import ArmlabError
+from armlab.errors import ReferenceSpecError
 from armlab.registry import scenario_type
 
 CONSTANT, VIA_POINTS, SINUSOID, RAMP, SQUARE_ACCEL = 0, 1, 2, 3, 4
-
-
-class ReferenceSpecError(ArmlabError, ValueError):
-    """A reference whose numbers cannot describe a trajectory (names the field)."""
 
 
 # Inlined into the law that evaluates the reference (four times a step): there the reference

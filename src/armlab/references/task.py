@@ -30,15 +30,10 @@ from dataclasses import dataclass, field
 import numpy as np
 from numba import njit
 
-from armlab.errors import ArmlabError
+from armlab.errors import TaskReferenceError
 from armlab.references.joint import quintic
 from armlab.registry import scenario_type
 from armlab.spatial import euler_matrix
-
-
-class TaskReferenceError(ArmlabError, ValueError):
-    """A task-space reference that cannot describe a trajectory (names the field)."""
-
 
 FRAME_SIZE = 24
 

@@ -35,19 +35,11 @@ from pathlib import Path
 
 import numpy as np
 
-from armlab.errors import ArmlabError
+from armlab.errors import ArmlabError, ScenarioFileError
 from armlab.model.robot import Robot
 from armlab.model.toml_io import evaluate_expression
 from armlab.registry import ScenarioType, declared, scenario_types
 from armlab.spatial import euler_matrix
-
-
-class ScenarioFileError(ArmlabError, ValueError):
-    """A scenario file that cannot be run; ``str()`` is ``file: field: reason``."""
-
-    def __init__(self, file, field: str, reason: str):
-        self.file, self.field, self.reason = str(file), field, reason
-        super().__init__(f"{self.file}: {field}: {reason}")
 
 
 def number(value, file, where) -> float:

@@ -27,14 +27,10 @@ from typing import Literal
 import numpy as np
 from numba import njit
 
-from armlab.errors import ArmlabError
+from armlab.errors import DisturbanceSpecError
 from armlab.registry import scenario_type
 
 CONSTANT, SINUSOIDAL, STEP, QUADRATIC_FRICTION, COSINE_GRAVITY = 0, 1, 2, 3, 4
-
-
-class DisturbanceSpecError(ArmlabError, ValueError):
-    """A disturbance whose numbers cannot describe a torque (names the field)."""
 
 
 kernel = njit(cache=True)

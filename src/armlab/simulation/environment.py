@@ -23,7 +23,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from armlab.control.base import Environment
-from armlab.errors import ArmlabError
+from armlab.errors import EnvironmentSpecError
 from armlab.kernels.environment import (
     FreeSpaceParams,
     PlanarWallParams,
@@ -33,10 +33,6 @@ from armlab.kernels.environment import (
     wall_law,
 )
 from armlab.registry import scenario_type
-
-
-class EnvironmentSpecError(ArmlabError, ValueError):
-    """Environment parameters that do not describe a physical environment (names the field)."""
 
 
 def _vector(value, name: str, size: int = 3) -> np.ndarray:

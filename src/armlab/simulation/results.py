@@ -21,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-from armlab.errors import ArmlabError
+from armlab.errors import ResultFileError
 
 _CORE = ("q", "qd", "qdd", "tau", "z")
 FORMATS = (".npz", ".csv", ".parquet")
@@ -34,10 +34,6 @@ def _plain(value):
     if isinstance(value, np.generic):
         return value.item()
     return repr(value)
-
-
-class ResultFileError(ArmlabError, ValueError):
-    """A result file that cannot be written or read; the message is ``file: reason``."""
 
 
 @dataclass(frozen=True)

@@ -42,7 +42,7 @@ import numpy as np
 
 from armlab.control.base import Controller, Environment, ProtocolError, Signal
 from armlab.dynamics import packed_copy
-from armlab.errors import ArmlabError
+from armlab.errors import SimulationDiverged, SimulationError
 from armlab.kernels.environment import FreeSpaceParams, free_space_law
 from armlab.simulation import loop as integrators
 from armlab.simulation.disturbances import encode_disturbances
@@ -51,18 +51,6 @@ from armlab.specialise import ClosedFormUnavailable, choice_problem, plant_kerne
 
 STATUS = {1: "non-finite state", 2: "joint limit exceeded", 3: "runaway kinetic energy",
           4: "mass matrix not positive definite"}
-
-
-class SimulationError(ArmlabError, ValueError):
-    """Bad simulation settings (names the argument)."""
-
-
-class SimulationDiverged(ArmlabError):
-    """The closed loop diverged; ``result`` holds the data up to the last good step."""
-
-    def __init__(self, message: str, result: SimulationResult):
-        super().__init__(message)
-        self.result = result
 
 
 # --------------------------------------------------------------------------- set-up helpers

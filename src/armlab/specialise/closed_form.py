@@ -59,7 +59,7 @@ from pathlib import Path
 
 import numpy as np
 
-from armlab.errors import ArmlabError
+from armlab.errors import ClosedFormUnavailable
 from armlab.kernels.dynamics import make_workspace, rnea_into
 from armlab.kernels.plant import (
     forward_dynamics_packed,
@@ -79,10 +79,6 @@ _LOCK = threading.Lock()
 _KEYS: dict = {}
 _KEYS_LOCK = threading.Lock()
 _PACKAGE = Path(__file__).resolve().parents[1]            # armlab/
-
-
-class ClosedFormUnavailable(ArmlabError):
-    """The closed form of a robot cannot be used (says why)."""
 
 
 def choice_problem(dynamics) -> str:

@@ -18,7 +18,7 @@ import numpy as np  # noqa: E402
 from matplotlib import animation  # noqa: E402
 from PIL import Image  # noqa: E402
 
-from armlab.errors import ArmlabError  # noqa: E402
+from armlab.errors import AnimationError  # noqa: E402
 from armlab.kinematics import link_frames  # noqa: E402
 from armlab.model.robot import Robot  # noqa: E402
 from armlab.viz.drawing import (  # noqa: E402
@@ -31,10 +31,6 @@ from armlab.viz.drawing import (  # noqa: E402
 )
 
 MOTION_SHARE = 0.999  # the arm's motion is over once this share of its joint travel is done
-
-
-class AnimationError(ArmlabError, ValueError):
-    """An animation that cannot be written (bad trajectory, missing encoder)."""
 
 
 def resample(t: np.ndarray, q: np.ndarray, frames: int) -> tuple[np.ndarray, np.ndarray]:

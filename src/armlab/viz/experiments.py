@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from armlab.errors import ArmlabError
+from armlab.errors import ReportError
 from armlab.model.robot import Robot
 from armlab.scenarios import list_scenarios, load_scenario
 from armlab.viz.drawing import Plane
@@ -24,10 +24,6 @@ from armlab.viz.metrics import Metric
 COMPANIONS = {"prp": ("link1",)}
 QUICK_T_FINAL = 2.0  # [s] length of every run in --quick mode
 HIDDEN_KEYS = {"title", "assignment", "description"}
-
-
-class ReportError(ArmlabError, ValueError):
-    """A report that cannot be built (unknown robot, unwritable output)."""
 
 
 @dataclass

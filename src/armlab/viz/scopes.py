@@ -24,7 +24,7 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
 from matplotlib.transforms import blended_transform_factory  # noqa: E402
 
-from armlab.errors import ArmlabError  # noqa: E402
+from armlab.errors import ScopeError  # noqa: E402
 from armlab.viz.html import figure_png  # noqa: E402
 from armlab.viz.layout import (  # noqa: E402, F401  (also imported from here by callers)
     ACTUAL,
@@ -51,10 +51,6 @@ WIDTH, LEFT, COLUMN, GAP = 8.0, 0.92, 1.55, 0.1
 ROW, TITLE, AXIS, FOOT_LINE = 1.55, 0.42, 0.45, 0.15
 FOOT_CHARACTERS = 130  # a footnote line at its font size across the figure
 FONT, SMALL = 9, 7.5
-
-
-class ScopeError(ArmlabError, ValueError):
-    """Scope plots that cannot be made (unknown format, empty result)."""
 
 
 def decimate(t: np.ndarray, y: np.ndarray, max_points: int = MAX_POINTS) -> tuple[np.ndarray, np.ndarray]:
