@@ -93,7 +93,22 @@ class SimulationError(SpecError):
 
 
 class UnreachableTargetError(InputError):
-    """An inverse-kinematics target outside the workspace."""
+    """No joint configuration (inside the joint limits, if respected) reaches the target.
+
+    Attributes: ``reason`` (``"out of reach"``, ``"joint limits"`` or ``"orientation"``),
+    ``best_q`` (n,) the best attempt, ``position_error`` [m] and ``orientation_error`` [rad]
+    of that attempt.
+    """
+
+    def __init__(self, message: str, *, reason: str, best_q=None, position_error=float("nan"),
+                 orientation_error=float("nan")):
+        import numpy as np  # here: importing the error tree stays free of numpy
+
+        super().__init__(message)
+        self.reason = reason
+        self.best_q = None if best_q is None else np.asarray(best_q, dtype=float)
+        self.position_error = float(position_error)
+        self.orientation_error = float(orientation_error)
 
 
 class RepresentationSingularityError(InputError):

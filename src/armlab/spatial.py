@@ -33,6 +33,17 @@ EULER_SINGULAR_EPS = 1e-12
 compiled = njit(cache=True, error_model="numpy")
 
 
+def checked_rotation(R, name: str, error=ValueError) -> np.ndarray:
+    """``R`` as a (3, 3) float array if it is a rotation matrix (RᵀR = I to 1e-6, det R > 0),
+    else ``error`` naming ``name`` (each caller passes its own error class)."""
+    R = np.asarray(R, dtype=float)
+    if R.shape != (3, 3) or not np.all(np.isfinite(R)):
+        raise error(f"{name}: must be a finite (3, 3) rotation matrix")
+    if np.abs(R.T @ R - np.eye(3)).max() > 1e-6 or np.linalg.det(R) < 0.0:
+        raise error(f"{name}: not a rotation matrix (RᵀR ≠ I or det R < 0)")
+    return R
+
+
 def rot_x(angle: float) -> np.ndarray:
     """Elementary rotation about x, (3, 3)."""
     c, s = np.cos(angle), np.sin(angle)

@@ -33,7 +33,7 @@ from numba import njit
 from armlab.errors import TaskReferenceError
 from armlab.references.joint import quintic
 from armlab.registry import scenario_type
-from armlab.spatial import euler_matrix
+from armlab.spatial import checked_rotation, euler_matrix
 
 FRAME_SIZE = 24
 
@@ -124,15 +124,6 @@ def _axis_angle(R: np.ndarray) -> tuple[np.ndarray, float]:
     return r, angle
 
 
-def _check_rotation(R, name: str) -> np.ndarray:
-    R = np.asarray(R, dtype=float)
-    if R.shape != (3, 3) or not np.all(np.isfinite(R)):
-        raise TaskReferenceError(f"{name}: must be a finite (3, 3) rotation matrix")
-    if np.abs(R.T @ R - np.eye(3)).max() > 1e-6 or np.linalg.det(R) < 0.0:
-        raise TaskReferenceError(f"{name}: not a rotation matrix (RᵀR ≠ I or det R < 0)")
-    return R
-
-
 @scenario_type("pose", poses={"poses": ("positions", "rotations")})
 @dataclass(frozen=True)
 class PoseReference:
@@ -160,7 +151,7 @@ class PoseReference:
         if not np.all(np.isfinite(positions)):
             raise TaskReferenceError("positions: must be finite")
         for j in range(count):
-            _check_rotation(rotations[j], f"rotations[{j}]")
+            checked_rotation(rotations[j], f"rotations[{j}]", TaskReferenceError)
         segments = []
         for j in range(count - 1):
             axis, angle = _axis_angle(rotations[j + 1] @ rotations[j].T)

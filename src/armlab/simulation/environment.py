@@ -33,6 +33,7 @@ from armlab.kernels.environment import (
     wall_law,
 )
 from armlab.registry import scenario_type
+from armlab.spatial import checked_rotation
 
 
 def _vector(value, name: str, size: int = 3) -> np.ndarray:
@@ -57,15 +58,6 @@ def check_stiffness(K, name: str = "stiffness") -> np.ndarray:
         raise EnvironmentSpecError(f"{name}: must be positive semi-definite (smallest eigenvalue "
                                    f"{lowest:.3g})")
     return K
-
-
-def _rotation(R, name: str) -> np.ndarray:
-    R = np.asarray(R, dtype=float)
-    if R.shape != (3, 3) or not np.all(np.isfinite(R)):
-        raise EnvironmentSpecError(f"{name}: must be a finite (3, 3) rotation matrix")
-    if np.abs(R.T @ R - np.eye(3)).max() > 1e-6 or np.linalg.det(R) < 0.0:
-        raise EnvironmentSpecError(f"{name}: not a rotation matrix (RᵀR ≠ I or det R < 0)")
-    return R
 
 
 def _freeze(obj, **arrays):
@@ -115,7 +107,7 @@ class Spring(_Evaluate, Environment):
     def __post_init__(self):
         _freeze(self, stiffness=check_stiffness(self.stiffness, "stiffness"),
                 rest_position=_vector(self.rest_position, "rest_position"),
-                rest_rotation=_rotation(self.rest_rotation, "rest_rotation"))
+                rest_rotation=checked_rotation(self.rest_rotation, "rest_rotation", EnvironmentSpecError))
 
     def params(self) -> SpringParams:
         return SpringParams(rest_rotation=np.ascontiguousarray(self.rest_rotation),
