@@ -278,7 +278,7 @@ def bias_into(m, ws, q, qd, h_e, out):
 
 
 @small_kernel
-def _crba_body(m, ws, n, B_out):
+def crba_body(m, ws, n, B_out):
     """:func:`mass_matrix_into` on the transforms already in ``ws`` (inlined into callers)."""
     R, p, Ic, hc, mc = ws.R, ws.p, ws.Ic, ws.hc, ws.mc
     for i in range(n):
@@ -397,7 +397,7 @@ def _crba_body(m, ws, n, B_out):
 def mass_matrix_inline(m, ws, q, B_out):
     """:func:`mass_matrix_into`, inlined into its caller."""
     local_transforms_into(m, q, ws.R, ws.p)
-    _crba_body(m, ws, q.shape[0], B_out)
+    crba_body(m, ws, q.shape[0], B_out)
 
 
 @kernel
@@ -505,5 +505,5 @@ def forward_dynamics_inline(m, ws, q, qd, tau, h_e, qdd_out):
     rnea_inline(m, ws, q, qd, ws.zero, 1.0, h_e, qdd_out)
     for k in range(n):
         qdd_out[k] = tau[k] - qdd_out[k]
-    _crba_body(m, ws, n, ws.L)
+    crba_body(m, ws, n, ws.L)
     return cholesky_solve_inplace(ws.L, qdd_out)

@@ -12,6 +12,7 @@ inside compiled code (no copy, no allocation):
 Kernels over a packed robot (all arrays float64, C-contiguous; (n,) unless stated):
 
     zero_wrench(packed) -> (6,) view (Python)
+    rnea_packed(packed, q, qd, qdd, h_e, tau_out)          τ of (D1) with gravity and h_e
     inverse_dynamics_packed(packed, q, qd, qdd, tau_out)   τ of (D1) with gravity, h_e = 0
     forward_dynamics_packed(packed, q, qd, tau, h_e, qdd_out) -> 0 | 1 wrong length | 2 B not PD
     kinetic_energy_packed(packed, q, qd) -> T [J] (NaN for a wrong length)
@@ -27,7 +28,8 @@ import numpy as np
 from numba import njit
 
 from armlab.kernels.dynamics import (
-    forward_dynamics_inline,
+    cholesky_solve_inplace,
+    crba_body,
     kernel,
     rnea_inline,
     workspace_from_buffer,
@@ -71,6 +73,21 @@ def unpack_plant(packed):
 
 
 @kernel
+def rnea_packed(packed, q, qd, qdd, h_e, tau_out):
+    """τ = B q̈ + C q̇ + F_v q̇ + F_s sgn q̇ + g + Jᵀ h_e (D1) by the RNEA, leaving the joint
+    transforms in the workspace; lengths unchecked.
+
+    The forward dynamics below calls it rather than inlining it: its inlined RNEA with a
+    wrench cost ~10 s of compile time with empty caches, the call and the CRBA ~3 s more
+    than this kernel, and the call costs a few nanoseconds of a numeric PRP step (within
+    noise).  The inverse dynamics keeps its own inlined RNEA without the wrench: it is the
+    law's model, called once per stage, and a second call there cost ~7 % of a numeric
+    PRP run."""
+    n, m, ws, _ = unpack_plant(packed)
+    rnea_inline(m, ws, q, qd, qdd, 1.0, h_e, tau_out)
+
+
+@kernel
 def inverse_dynamics_packed(packed, q, qd, qdd, tau_out):
     """τ = B q̈ + C q̇ + F_v q̇ + F_s sgn q̇ + g (D1, h_e = 0) by the RNEA; lengths unchecked
     (compiled callers pass n-vectors)."""
@@ -80,13 +97,19 @@ def inverse_dynamics_packed(packed, q, qd, qdd, tau_out):
 
 @kernel
 def forward_dynamics_packed(packed, q, qd, tau, h_e, qdd_out):
-    """q̈ of (D1) by :func:`~armlab.kernels.dynamics.forward_dynamics_into`.
+    """q̈ of (D1) as :func:`~armlab.kernels.dynamics.forward_dynamics_into` computes it:
+    the bias by :func:`rnea_packed` (q̈ = 0), then the CRBA on the joint transforms it leaves
+    in the workspace and an in-place Cholesky solve (D5).
     Returns 0 (done), 1 (a wrong length: nothing touched) or 2 (B not positive definite)."""
     n, m, ws, _ = unpack_plant(packed)
     if (q.shape[0] != n or qd.shape[0] != n or tau.shape[0] != n or h_e.shape[0] != 6
             or qdd_out.shape[0] != n):
         return 1
-    return 0 if forward_dynamics_inline(m, ws, q, qd, tau, h_e, qdd_out) else 2
+    rnea_packed(packed, q, qd, ws.zero, h_e, qdd_out)
+    for k in range(n):
+        qdd_out[k] = tau[k] - qdd_out[k]
+    crba_body(m, ws, n, ws.L)
+    return 0 if cholesky_solve_inplace(ws.L, qdd_out) else 2
 
 
 @kernel

@@ -188,19 +188,24 @@ def plain_params(params):
     return params
 
 
-def addresses(law, env_law, cparams, eparams, forward_dynamics=None, kinetic_energy=None, entry=None):
+def addresses(law, env_law, cparams, eparams, forward_dynamics=None, kinetic_energy=None, entry=None,
+              has_env=True, has_dist=True):
     """The ``fn`` array for a loop with these parameters (compiles what is missing; remembered
     per law, entry, environment, plant kernels and parameter types).
 
     The argument types are those ``stage`` passes; ``forward_dynamics`` and ``kinetic_energy``
     default to the general kernels of ``armlab.kernels.plant``; ``entry`` is the controller's
-    own entry (the law inlined, see the module docstring), None for :func:`law_trampoline`."""
+    own entry (the law inlined, see the module docstring), None for :func:`law_trampoline`.
+    A loop run without an environment (``has_env`` False) or without disturbances
+    (``has_dist`` False) never calls the kinematics and the environment's law, or the
+    disturbance kernel: their slots hold 0 and they are not compiled (several seconds with
+    empty caches)."""
     key = (law, entry, env_law, forward_dynamics, kinetic_energy, _type_key(cparams),
-           _type_key(eparams))
+           _type_key(eparams), bool(has_env), bool(has_dist))
     fn = _FN.get(key)
     if fn is None:
         fn = _FN[key] = _addresses(law, env_law, cparams, eparams, forward_dynamics, kinetic_energy,
-                                   entry)
+                                   entry, bool(has_env), bool(has_dist))
     return fn
 
 
@@ -226,7 +231,8 @@ def compile_shared() -> None:
     kernel_address(free_space_law, (_F64, _MAT, _VEC, _VEC, typeof(free), _VEC), types.none)
 
 
-def _addresses(law, env_law, cparams, eparams, forward_dynamics, kinetic_energy, entry):
+def _addresses(law, env_law, cparams, eparams, forward_dynamics, kinetic_energy, entry, has_env,
+               has_dist):
     vec, mat, f64, none = _VEC, _MAT, _F64, types.none
     ctype, etype = typeof(cparams), typeof(eparams)
     cplain, eplain = typeof(plain_params(cparams)), typeof(plain_params(eparams))
@@ -238,12 +244,13 @@ def _addresses(law, env_law, cparams, eparams, forward_dynamics, kinetic_energy,
         kernel_address(entry, law_entry_types(ctype), none) if own else
         kernel_address(law_trampoline, law_entry_types(cplain), none),
         0 if own else kernel_address(law, (f64, vec, vec, vec, vec, ctype, vec, vec, vec), none),
-        kernel_address(env_trampoline, (types.CPointer(eplain), _I64, f64, mat, vec, vec, vec), none),
-        kernel_address(env_law, (f64, mat, vec, vec, etype, vec), none),
+        kernel_address(env_trampoline, (types.CPointer(eplain), _I64, f64, mat, vec, vec, vec), none)
+        if has_env else 0,
+        kernel_address(env_law, (f64, mat, vec, vec, etype, vec), none) if has_env else 0,
         kernel_address(fd, (vec,) * 6, _I64),
         kernel_address(ke, (vec,) * 3, f64),
-        kernel_address(measure_packed, (vec, vec, vec, vec, mat, vec, vec), none),
-        kernel_address(disturbance_into, (vec, f64, vec, vec, vec), none),
+        kernel_address(measure_packed, (vec, vec, vec, vec, mat, vec, vec), none) if has_env else 0,
+        kernel_address(disturbance_into, (vec, f64, vec, vec, vec), none) if has_dist else 0,
     ], dtype=np.int64)
 
 

@@ -150,7 +150,9 @@ class _Setup:
         """(fn, pp, work) of one run: the loop's addresses, the packed plant (its own copy:
         it holds scratch) and the loop's scratch memory."""
         fn = integrators.addresses(self.law, self.env_law, cparams, self.eparams,
-                                   self.forward_dynamics, self.kinetic_energy, self.entry)
+                                   self.forward_dynamics, self.kinetic_energy, self.entry,
+                                   has_env=self.environment is not None,
+                                   has_dist=bool(self.dist[0] > 0))
         work = np.zeros(integrators.work_size(self.n, self.k, self.sig_width))
         return fn, packed_copy(self.plant), work
 
