@@ -21,6 +21,7 @@ from armlab.errors import ControllerSpecError
 from armlab.kernels.dynamics import DynamicsWorkspace, gravity_into, make_workspace
 from armlab.kernels.indirect import call_none, kernel_address
 from armlab.kernels.packed import borrowed
+from armlab.kernels.plant import inverse_dynamics_packed, rnea_packed, zero_wrench
 from armlab.model.robot import Robot, RobotArrays
 from armlab.references.joint import JointReference, reference_into
 from armlab.registry import scenario_type
@@ -41,6 +42,7 @@ def _check_reference(reference, n, field="reference"):
 law_kernel = njit(cache=True, inline="always")
 _VEC = types.float64[::1]
 _INVERSE_DYNAMICS_TYPES = (_VEC,) * 5   # one tuple: kernel_address finds it by identity
+_RNEA_TYPES = (_VEC,) * 6
 
 
 class JointPDGravityParams(NamedTuple):
@@ -138,10 +140,10 @@ class JointPDGravity(Controller):
 
 
 class JointInverseDynamicsParams(NamedTuple):
-    """The ``params`` of :func:`joint_inverse_dynamics_law` (C2); n joints, the last four
+    """The ``params`` of :func:`joint_inverse_dynamics_law` (C2); n joints, ``q_des`` to ``y``
     scratch."""
 
-    inverse_dynamics: int           # address of the model's inverse dynamics (``inverse_dynamics_kernel``)
+    inverse_dynamics: int           # address of the model's closed-form inverse dynamics, or 0
     packed_model: np.ndarray        # the model packed (``armlab.kernels.plant``); own copy: holds scratch
     reference: np.ndarray           # a writeable copy of ``JointReference.data``
     kp: np.ndarray                  # (n, n) K_P [1/s²]
@@ -151,6 +153,8 @@ class JointInverseDynamicsParams(NamedTuple):
     qd_des: np.ndarray              # (n,) q̇_des(t) [m/s | rad/s]
     qdd_des: np.ndarray             # (n,) q̈_des(t) [m/s² | rad/s²]
     y: np.ndarray                   # (n,) outer-loop acceleration y [m/s² | rad/s²]
+    rnea: int                       # address of ``rnea_packed`` when the model has no closed form, or 0
+    zero_wrench: np.ndarray         # (6,) zeros inside ``packed_model``: h_e of the RNEA call
 
 
 @law_kernel
@@ -172,8 +176,13 @@ def joint_inverse_dynamics_law(t, q, qd, z, h_e, params, tau_out, zdot_out, sign
                 acc += kd[i, j] * (qd_des[j] - qd[j]) + kp[i, j] * (q_des[j] - q[j])
         y[i] = acc
     # B̂ y + n̂ is exactly the model's inverse dynamics at q̈ = y (no B): the model's closed
-    # form or its RNEA, whichever ``dynamics`` chose (armlab.specialise).
-    call_none(inverse_dynamics, (model, q, qd, y, tau_out))
+    # form or its RNEA, whichever ``dynamics`` chose (armlab.specialise).  The RNEA is the
+    # plant's own ``rnea_packed`` with a zero wrench (skipped at run time): one compiled RNEA
+    # serves plant and law, rather than a second one without the wrench (~4 s cold compile).
+    if params.rnea != 0:
+        call_none(params.rnea, (model, q, qd, y, params.zero_wrench, tau_out))
+    else:
+        call_none(inverse_dynamics, (model, q, qd, y, tau_out))
     for i in range(n):
         signals_out[i] = q_des[i]
         signals_out[n + i] = q_des[i] - q[i]
@@ -244,11 +253,15 @@ class JointInverseDynamics(Controller):
             raise ControllerSpecError(f"dynamics: {error}") from None
         diagonal = not (np.any(self.kp - np.diag(np.diag(self.kp)))
                         or np.any(self.kd - np.diag(np.diag(self.kd))))
+        packed_model = packed_copy(self.model)
+        numeric = kernel is inverse_dynamics_packed
         return JointInverseDynamicsParams(
-            inverse_dynamics=kernel_address(kernel, _INVERSE_DYNAMICS_TYPES, types.none),
-            packed_model=packed_copy(self.model), reference=np.array(self.reference.data),
+            inverse_dynamics=0 if numeric else kernel_address(kernel, _INVERSE_DYNAMICS_TYPES, types.none),
+            packed_model=packed_model, reference=np.array(self.reference.data),
             kp=self.kp, kd=self.kd, diagonal=np.array([diagonal], dtype=np.int64),
-            q_des=np.zeros(n), qd_des=np.zeros(n), qdd_des=np.zeros(n), y=np.zeros(n))
+            q_des=np.zeros(n), qd_des=np.zeros(n), qdd_des=np.zeros(n), y=np.zeros(n),
+            rnea=kernel_address(rnea_packed, _RNEA_TYPES, types.none) if numeric else 0,
+            zero_wrench=zero_wrench(packed_model))
 
     def signals(self):
         return (Signal.joint("q_des", self.model, "position"), Signal.joint("q_err", self.model, "error"),

@@ -80,9 +80,10 @@ def rnea_packed(packed, q, qd, qdd, h_e, tau_out):
     The forward dynamics below calls it rather than inlining it: its inlined RNEA with a
     wrench cost ~10 s of compile time with empty caches, the call and the CRBA ~3 s more
     than this kernel, and the call costs a few nanoseconds of a numeric PRP step (within
-    noise).  The inverse dynamics keeps its own inlined RNEA without the wrench: it is the
-    law's model, called once per stage, and a second call there cost ~7 % of a numeric
-    PRP run."""
+    noise).  The computed-torque law calls it too, by address with a zero wrench (skipped at
+    run time), so a run compiles one RNEA for plant and controller; the public inverse
+    dynamics keeps its own inlined RNEA without the wrench (calling this kernel from there
+    instead cost ~7 % of a numeric PRP run: one more call per stage)."""
     n, m, ws, _ = unpack_plant(packed)
     rnea_inline(m, ws, q, qd, qdd, 1.0, h_e, tau_out)
 
