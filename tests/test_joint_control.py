@@ -125,3 +125,29 @@ def test_computed_torque_with_diagonal_gains_skips_only_zero_terms():
         np.testing.assert_array_equal(outs[0][1], outs[1][1])
     full = JointInverseDynamics(PRP, controller.reference, [[25, 1, 0], [1, 25, 0], [0, 0, 25]], 10.0)
     assert full.params()[5][0] == 0                              # coupled gains: the full sum
+
+
+NUMERIC_RUN_PROGRAM = """
+import numpy as np
+import armlab
+from armlab.control.joint_space import JointInverseDynamics
+from armlab.kernels.plant import inverse_dynamics_packed, rnea_packed
+from armlab.references.joint import Constant
+from armlab.simulation import simulate
+prp = armlab.load_robot("prp")
+controller = JointInverseDynamics(prp, Constant([0.15, 0.5, 0.1]), 25.0, 10.0, dynamics="numeric")
+simulate(prp, controller, q0=[0, 0, 0], t_final=0.01, dt=1e-3, dynamics="numeric")
+print(len(inverse_dynamics_packed.signatures), len(rnea_packed.signatures))
+"""
+
+
+def test_numeric_computed_torque_run_compiles_one_rnea_for_plant_and_law():
+    # The law's B̂ y + n̂ is the plant's rnea_packed with a zero wrench: a fresh process that
+    # runs (C2) numerically never compiles the wrench-free inverse_dynamics_packed.
+    import subprocess
+    import sys
+
+    done = subprocess.run([sys.executable, "-c", NUMERIC_RUN_PROGRAM], capture_output=True,
+                          text=True, timeout=600)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.split() == ["0", "1"]
