@@ -34,7 +34,6 @@ import numpy as np
 from numba import njit
 
 from armlab.errors import UnreachableTargetError
-from armlab.kernels.dynamics import cholesky_solve_inplace
 from armlab.kernels.kinematics import (
     KinematicsWorkspace,
     end_effector_into,
@@ -42,6 +41,7 @@ from armlab.kernels.kinematics import (
     joint_frames_into,
     kinematics_workspace,
 )
+from armlab.kernels.linalg import cholesky_solve_inplace
 from armlab.model.robot import PRISMATIC, REVOLUTE, Robot
 from armlab.spatial import euler_code, euler_matrix, rotation_error, rotation_error_into
 

@@ -20,7 +20,8 @@ Published API (n = number of joints; float64 arrays)::
     coriolis_matrix_into(m, ws, q, qd, C_out)                    # Christoffel C(q, q̇), (n, n) (D4)
     forward_dynamics_into(m, ws, q, qd, tau, h_e, qdd_out) -> ok # q̈ of (D1), Cholesky solve (D5);
                                                                  #   False if B is not positive definite
-    cholesky_solve_inplace(A, b) -> ok                           # b ← A⁻¹b, A overwritten by L
+
+The Cholesky solve of (D5) is ``armlab.kernels.linalg.cholesky_solve_inplace``.
 
 The energies (D6, D7) are in ``armlab.kernels.energy`` (same arguments).
 
@@ -58,6 +59,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from armlab.kernels.linalg import cholesky_solve_inplace
 from armlab.kernels.workspace import DynamicsWorkspace as DynamicsWorkspace  # re-exported
 from armlab.kernels.workspace import make_workspace as make_workspace
 from armlab.kernels.workspace import workspace_from_buffer as workspace_from_buffer
@@ -454,37 +456,6 @@ def coriolis_matrix_into(m, ws, q, qd, C_out):
             rnea_inline(rigid, ws, q, u, ws.zero, 0.0, None, t1 if side == 0 else t2)
         for r in range(n):
             C_out[r, j] = 0.25 * norm * (t1[r] - t2[r])
-
-
-@kernel
-def cholesky_solve_inplace(A, b):
-    """b ← A⁻¹ b for symmetric positive-definite A (n, n), overwriting A's lower triangle with
-    its Cholesky factor L (A = L Lᵀ).  Returns False if A is not positive definite."""
-    n = b.shape[0]
-    for j in range(n):
-        d = A[j, j]
-        for k in range(j):
-            d -= A[j, k] * A[j, k]
-        if d <= 0.0:
-            return False
-        d = np.sqrt(d)
-        A[j, j] = d
-        for i in range(j + 1, n):
-            s = A[i, j]
-            for k in range(j):
-                s -= A[i, k] * A[j, k]
-            A[i, j] = s / d
-    for i in range(n):
-        s = b[i]
-        for k in range(i):
-            s -= A[i, k] * b[k]
-        b[i] = s / A[i, i]
-    for i in range(n - 1, -1, -1):
-        s = b[i]
-        for k in range(i + 1, n):
-            s -= A[k, i] * b[k]
-        b[i] = s / A[i, i]
-    return True
 
 
 @kernel

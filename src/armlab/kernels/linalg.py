@@ -8,7 +8,9 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from armlab.kernels.dynamics import cholesky_solve_inplace
+# The dynamics kernels' one fast-math liberty (FMA contraction, docs/notation.md): the Cholesky
+# solve of their forward dynamics is compiled as it was beside them.
+_CONTRACT = njit(cache=True, fastmath={"contract"})
 
 # A pivot below this makes a square task system singular (task_solve_into returns False).
 SINGULAR_PIVOT = 1e-12
@@ -72,6 +74,37 @@ def solve_square_inplace(A, b):
             acc -= A[r, c] * b[c]
         b[r] = acc / A[r, r]
     return smallest
+
+
+@_CONTRACT
+def cholesky_solve_inplace(A, b):
+    """b ← A⁻¹ b for symmetric positive-definite A (n, n), overwriting A's lower triangle with
+    its Cholesky factor L (A = L Lᵀ).  Returns False if A is not positive definite."""
+    n = b.shape[0]
+    for j in range(n):
+        d = A[j, j]
+        for k in range(j):
+            d -= A[j, k] * A[j, k]
+        if d <= 0.0:
+            return False
+        d = np.sqrt(d)
+        A[j, j] = d
+        for i in range(j + 1, n):
+            s = A[i, j]
+            for k in range(j):
+                s -= A[i, k] * A[j, k]
+            A[i, j] = s / d
+    for i in range(n):
+        s = b[i]
+        for k in range(i):
+            s -= A[i, k] * b[k]
+        b[i] = s / A[i, i]
+    for i in range(n - 1, -1, -1):
+        s = b[i]
+        for k in range(i + 1, n):
+            s -= A[k, i] * b[k]
+        b[i] = s / A[i, i]
+    return True
 
 
 @njit(cache=True)

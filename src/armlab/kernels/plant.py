@@ -28,7 +28,6 @@ import numpy as np
 from numba import njit
 
 from armlab.kernels.dynamics import (
-    cholesky_solve_inplace,
     crba_body,
     kernel,
     rnea_inline,
@@ -37,6 +36,7 @@ from armlab.kernels.dynamics import (
 )
 from armlab.kernels.energy import kinetic_energy_kernel
 from armlab.kernels.kinematics import end_effector_into, geometric_jacobian_into, joint_frames_into
+from armlab.kernels.linalg import cholesky_solve_inplace
 from armlab.kernels.packed import borrowed, buffer_view, pack_robot, unpack_robot
 from armlab.model.robot import RobotArrays
 

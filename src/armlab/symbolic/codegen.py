@@ -29,7 +29,7 @@ import numba
 import numpy as np
 import sympy as sp
 
-from armlab.kernels.dynamics import cholesky_solve_inplace
+from armlab.kernels.linalg import cholesky_solve_inplace
 from armlab.model.robot import Robot
 from armlab.symbolic.energy import inertia_matrix
 from armlab.symbolic.kinematics import end_effector_pose, geometric_jacobian
