@@ -14,7 +14,7 @@ from armlab.kernels.indirect import (
 )
 from armlab.kernels.packed import borrowed
 from armlab.kernels.plant import forward_dynamics_packed, kinetic_energy_packed, pack_plant
-from armlab.simulation import loop as integrators
+from armlab.simulation import loop
 
 VEC = types.float64[::1]
 
@@ -85,7 +85,7 @@ def test_a_parameter_tuple_crosses_as_a_stack_address():
 
 @njit(cache=False)
 def _scratch_extent(work, n, k, s):
-    views = integrators.scratch_views(work, n, k, s)
+    views = loop.scratch_views(work, n, k, s)
     last, zdot = views[-1], views[8]
     return ((last.ctypes.data - work.ctypes.data) // 8 + last.size,
             (zdot.ctypes.data - work.ctypes.data) // 8)
@@ -93,16 +93,16 @@ def _scratch_extent(work, n, k, s):
 
 @pytest.mark.parametrize("n, k, s", [(1, 0, 0), (3, 12, 7), (6, 2, 30)])
 def test_the_scratch_views_fill_the_scratch_array_exactly(n, k, s):
-    work = np.zeros(integrators.work_size(n, k, s))
+    work = np.zeros(loop.work_size(n, k, s))
     end, zdot_start = _scratch_extent(work, n, k, s)
     assert end == work.size
-    assert zdot_start == integrators.zdot_slice(n, k).start   # where the adaptive path reads ż
+    assert zdot_start == loop.zdot_slice(n, k).start   # where the adaptive path reads ż
 
 
 @pytest.mark.parametrize("flags, extra", [((1, 1, 1), [3, 3, 6]), ((0, 0, 0), [0, 0, 0]),
                                           ((1, 0, 1), [3, 0, 6])])
 def test_the_log_columns_cover_what_a_row_writes(flags, extra):
-    columns = integrators.log_columns(3, 2, integrators.log_layout([2, 3], *flags))
+    columns = loop.log_columns(3, 2, loop.log_layout([2, 3], *flags))
     widths = [c.stop - c.start for c in columns.values()]
     assert widths == [1, 3, 3, 3, 3, 2, 5] + extra
     assert list(columns.values())[0].start == 0
@@ -148,7 +148,7 @@ def test_a_callee_returning_the_wrong_type_is_refused_before_any_call():
 
 
 def test_parameter_type_keys_tell_apart_what_numba_types_differently():
-    key = integrators._type_key
+    key = loop._type_key
     assert key((np.zeros(3), 1.0)) == key((np.ones(3), 2.0))
     assert key((np.zeros(3),)) != key((np.zeros(3, dtype=np.float32),))
     assert key((np.zeros(3),)) != key((np.zeros((3, 1))[:, 0].copy(order="F")[::2],))

@@ -18,8 +18,7 @@ from armlab.control.adaptive import SlotineLi
 from armlab.control.base import Controller, Signal
 from armlab.references.joint import Sinusoid
 from armlab.scenarios import bundled_scenario_names, load_scenario
-from armlab.simulation import loop as integrators
-from armlab.simulation import simulate
+from armlab.simulation import loop, simulate
 from armlab.simulation.environment import FreeSpace, PlanarWall, Spring
 
 PRP = armlab.load_robot("prp")
@@ -149,8 +148,8 @@ def test_the_shared_loop_functions_never_see_a_named_tuple():
              dt=1e-3, method="adaptive")
     scenario = load_scenario("a11_compliance")
     scenario.run(t_final=0.01)
-    shared = (integrators.rk4_run, integrators.rhs, integrators.log_rows, integrators.law_trampoline,
-              integrators.env_trampoline)
+    shared = (loop.rk4_run, loop.rhs, loop.log_rows, loop.law_trampoline,
+              loop.env_trampoline)
     signatures = [(function.py_func.__name__, signature) for function in shared
                   for signature in function.signatures]
     assert {name for name, _ in signatures} == {function.py_func.__name__ for function in shared}
@@ -164,8 +163,8 @@ def test_a_named_tuple_and_its_plain_tuple_share_numba_layout(item):
     # The loop stores the plain tuple and the law reads it as its NamedTuple (integrators).
     params = item.params()
     named, plain = default_manager.lookup(typeof(params)), default_manager.lookup(
-        typeof(integrators.plain_params(params)))
-    assert typeof(integrators.plain_params(params)) != typeof(params)
+        typeof(loop.plain_params(params)))
+    assert typeof(loop.plain_params(params)) != typeof(params)
     assert named.get_value_type() == plain.get_value_type()
     assert named.get_data_type() == plain.get_data_type()
     assert named.get_argument_type() == plain.get_argument_type()

@@ -44,7 +44,7 @@ from armlab.control.base import Controller, Environment, ProtocolError, Signal
 from armlab.dynamics import packed_copy
 from armlab.errors import SimulationDiverged, SimulationError
 from armlab.kernels.environment import FreeSpaceParams, free_space_law
-from armlab.simulation import loop as integrators
+from armlab.simulation import loop
 from armlab.simulation.disturbances import encode_disturbances
 from armlab.simulation.results import SimulationResult
 from armlab.specialise import ClosedFormUnavailable, choice_problem, plant_kernels
@@ -142,29 +142,29 @@ class _Setup:
         self.entry = None if entry is None else _compiled(entry, f"{type(controller).__name__}.entry")
         self.env_law = _compiled(self.env_law, f"{type(environment).__name__}.law")
         self.rows = self.n_steps // self.log_every + 1
-        self.layout = integrators.log_layout([s.width for s in self.signals],
+        self.layout = loop.log_layout([s.width for s in self.signals],
                                              cmd=bool(np.any(np.isfinite(self.lim))),
                                              dist=self.dist[0] > 0, h_e=environment is not None)
 
     def workspace(self, cparams):
         """(fn, pp, work) of one run: the loop's addresses, the packed plant (its own copy:
         it holds scratch) and the loop's scratch memory."""
-        fn = integrators.addresses(self.law, self.env_law, cparams, self.eparams,
+        fn = loop.addresses(self.law, self.env_law, cparams, self.eparams,
                                    self.forward_dynamics, self.kinetic_energy, self.entry,
                                    has_env=self.environment is not None,
                                    has_dist=bool(self.dist[0] > 0))
-        work = np.zeros(integrators.work_size(self.n, self.k, self.sig_width))
+        work = np.zeros(loop.work_size(self.n, self.k, self.sig_width))
         return fn, packed_copy(self.plant), work
 
     def outputs(self, rows=None):
-        """The flat log of ``rows`` rows (``integrators.log_views`` gives its blocks).  Every
+        """The flat log of ``rows`` rows (``loop.log_views`` gives its blocks).  Every
         row the loop reports is written in full, so it need not be zeroed."""
         rows = self.rows if rows is None else rows
-        columns = integrators.log_columns(self.n, self.k, self.layout)
+        columns = loop.log_columns(self.n, self.k, self.layout)
         return np.empty(rows * columns["h_e"].stop)
 
     def views(self, out):
-        return integrators.log_views(out, self.n, self.k, self.layout)
+        return loop.log_views(out, self.n, self.k, self.layout)
 
     def settings(self):
         fset = np.array([0.0, self.dt, self.ke_max])
@@ -325,8 +325,8 @@ def _run_rk4(setup, cparams, meta, on_divergence):
 
 def _rk4(setup, cparams, fset, iset, out):
     fn, pp, work = setup.workspace(cparams)
-    cplain, eplain = integrators.plain_params(cparams), integrators.plain_params(setup.eparams)
-    return integrators.rk4_run(integrators.core_address("rk4"), fn, pp, cplain, eplain, setup.dist,
+    cplain, eplain = loop.plain_params(cparams), loop.plain_params(setup.eparams)
+    return loop.rk4_run(loop.core_address("rk4"), fn, pp, cplain, eplain, setup.dist,
                                setup.x0.copy(), work, fset, iset, setup.lim, setup.q_lo, setup.q_hi,
                                out)
 
@@ -336,8 +336,8 @@ def _run_adaptive(setup, cparams, meta, on_divergence, rtol, atol, integrator):
 
     n, width = setup.n, setup.sig_width
     fn, pp, work = setup.workspace(cparams)
-    cplain, eplain = integrators.plain_params(cparams), integrators.plain_params(setup.eparams)
-    rhs_core, log_core = integrators.core_address("rhs"), integrators.core_address("log")
+    cplain, eplain = loop.plain_params(cparams), loop.plain_params(setup.eparams)
+    rhs_core, log_core = loop.core_address("rhs"), loop.core_address("log")
     has_env = setup.environment is not None
     xdot = np.zeros_like(setup.x0)
     grid = np.arange(setup.n_steps + 1) * setup.dt
@@ -348,7 +348,7 @@ def _run_adaptive(setup, cparams, meta, on_divergence, rtol, atol, integrator):
         # SciPy may hand a strided column (Radau's, BDF's numerical Jacobian); the loop
         # reads its state as contiguous float64.
         x = np.ascontiguousarray(x, dtype=float)
-        integrators.rhs(rhs_core, fn, float(t), x, pp, cplain, eplain, setup.dist, has_env,
+        loop.rhs(rhs_core, fn, float(t), x, pp, cplain, eplain, setup.dist, has_env,
                         call_law, z_rate, setup.lim, work, width, xdot)
         return xdot.copy()
 
@@ -363,19 +363,19 @@ def _run_adaptive(setup, cparams, meta, on_divergence, rtol, atol, integrator):
         if setup.sampled:
             if first > 0:
                 x[2 * n:] += setup.every * setup.dt * zdot_held
-            integrators.rhs(rhs_core, fn, grid[first], x, pp, cplain, eplain, setup.dist,
+            loop.rhs(rhs_core, fn, grid[first], x, pp, cplain, eplain, setup.dist,
                             has_env, True, 0.0, setup.lim, work, width, xdot)
-            zdot_held = work[integrators.zdot_slice(n, setup.k)].copy()
+            zdot_held = work[loop.zdot_slice(n, setup.k)].copy()
         solution = solve_ivp(rhs, (grid[first], grid[last]), x, method=integrator, rtol=rtol,
                              atol=atol, t_eval=grid[first:last + 1],
                              args=(not setup.sampled, 0.0 if setup.sampled else 1.0))
         xs = np.ascontiguousarray(solution.y.T)
         keep = xs.shape[0] if last == setup.n_steps else xs.shape[0] - 1
-        bad, code, where = integrators.check_rows(fn, pp, xs[:keep], setup.q_lo, setup.q_hi,
+        bad, code, where = loop.check_rows(fn, pp, xs[:keep], setup.q_lo, setup.q_hi,
                                                   setup.ke_max, work)
         if bad >= 0:
             status, step, joint, keep = code, first + bad, where, bad
-        integrators.log_rows(log_core, fn, grid[first:first + keep],
+        loop.log_rows(log_core, fn, grid[first:first + keep],
                              np.ascontiguousarray(xs[:keep]), pp, cplain, eplain,
                              setup.dist, has_env, not setup.sampled, setup.lim, work, setup.layout,
                              out, rows)
