@@ -116,7 +116,7 @@ def test_small_robots_too(name, monkeypatch):
 
 
 def test_the_puma_code_is_folded():
-    source = traced_source(PUMA, key="test", name="puma560")
+    source = traced_source(PUMA, key="test")
     forward = source[source.index("def forward_dynamics"):source.index("def kinetic_energy")]
     # No multiplication by 0 or ±1, no addition of 0 is left (DH geometry: cos(±π/2) snapped).
     for pattern in (" * 0.0\n", " * 1.0\n", " 0.0 * ", " 1.0 * ", " + 0.0\n", " - 0.0\n"):

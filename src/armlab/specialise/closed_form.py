@@ -193,11 +193,11 @@ def _generate(robot: Robot, key: str, path: Path) -> None:
         from armlab.symbolic.model import symbolic_robot
         from armlab.symbolic.module_source import closed_form_source
 
-        source = closed_form_source(symbolic_robot(robot, numeric=True), key=key, name=robot.name)
+        source = closed_form_source(symbolic_robot(robot, numeric=True), key=key)
     else:
         from armlab.specialise.traced import traced_source
 
-        source = traced_source(robot, key=key, name=robot.name)
+        source = traced_source(robot, key=key)
     # Written atomically: parallel processes may generate the same module.
     handle, temporary = tempfile.mkstemp(dir=path.parent, suffix=".tmp")
     with os.fdopen(handle, "w") as stream:

@@ -51,7 +51,9 @@ import numpy as np
 from armlab.kernels import dynamics as _dynamics
 from armlab.model.robot import Robot, RobotArrays
 
-HEADER = '''"""Dynamics of robot {name!r} specialised to its numbers by armlab.specialise.traced (the numeric
+# No text of the robot file enters the source (its name could close the docstring and run
+# code): the module is named by the key, a hex digest, alone.
+HEADER = '''"""Dynamics of a robot specialised to its numbers by armlab.specialise.traced (the numeric
 kernels partially evaluated).  Key {key}.  Do not edit: regenerated when the robot, the kernels
 or the generator change."""
 import math
@@ -341,7 +343,7 @@ def _friction(arrays: RobotArrays) -> tuple[list[str], list[str]]:
     return lines, terms
 
 
-def traced_source(robot: Robot, *, key: str, name: str) -> str:
+def traced_source(robot: Robot, *, key: str) -> str:
     """Source of the module (interface in the module docstring) for ``robot``."""
     # These import SymPy: at generation only.
     from armlab.symbolic.module_source import _ldl_solve, checked_inverse_lines, mass_matrix_lines
@@ -417,6 +419,6 @@ def traced_source(robot: Robot, *, key: str, name: str) -> str:
     entries = [B[i, j] for i in range(n) for j in range(n)]
     body, _ = _live(tape.lines, _names(entries))
     mass = mass_matrix_lines(n, body, [_text(value) for value in entries])
-    return (HEADER.format(name=name, key=key) + "\n".join(inverse) + "\n\n\n" + "\n".join(forward)
+    return (HEADER.format(key=key) + "\n".join(inverse) + "\n\n\n" + "\n".join(forward)
             + "\n\n\n" + "\n".join(kinetic) + "\n\n\n" + "\n".join(mass) + "\n\n\n"
             + "\n".join(checked_inverse_lines(n)) + "\n")
