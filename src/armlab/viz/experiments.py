@@ -18,6 +18,7 @@ import numpy as np
 from armlab.errors import ReportError
 from armlab.model.robot import Robot
 from armlab.scenarios import list_scenarios, load_scenario
+from armlab.theory import predictions
 from armlab.viz.drawing import Plane
 from armlab.viz.metrics import Metric
 
@@ -46,6 +47,7 @@ class Experiment:
     scenario: str | None = None
     t_final: float | None = None
     kind: str = ""
+    predicted: list = field(default_factory=list)   # rows of armlab.theory.predictions
 
     def run(self):
         """Run the scenario: ``runner()`` returns its SimulationResult."""
@@ -125,7 +127,8 @@ def experiment_from_scenario(scenario, t_final: float | None = None) -> Experime
     return Experiment(name=scenario.name, assignment=number, title=scenario.title,
                       description=scenario.description, parameters=parameters, robot=scenario.plant,
                       plane=environment_plane(scenario.environment), runner=runner,
-                      scenario=scenario.name, t_final=short, kind=type(scenario.controller).__name__)
+                      scenario=scenario.name, t_final=short, kind=type(scenario.controller).__name__,
+                      predicted=predictions(scenario))
 
 
 def discover(robot: Robot, *, quick: bool = False) -> list[Experiment]:

@@ -1,0 +1,112 @@
+"""What the theory predicts for a closed loop, computed independently of the simulation.
+
+Each function solves the equation the theory gives — an equilibrium, a gain bound — from the
+model terms of ``armlab.dynamics`` alone, never from a run, so that a run can be checked against
+it (the report prints both side by side, :func:`predictions`).
+
+* Computed torque with a wrong model (A7, law C2) settles where, at rest (q̇ = 0, constant
+  q_des, y = K_P q̃),
+
+      B̂(q) K_P q̃ + n̂(q, 0) = g(q),   q = q_des − q̃                                        (T1)
+
+  with n̂(q, 0) = ĝ(q) the controller's gravity (from its ``bias_model`` when it has one).
+* PD + g(q_des) (A6 option 3, law C1) is globally asymptotically stable when
+  λ_min(K_P) > α,  α ≥ ‖∂g/∂q‖ over the joint space (Tomei 1991; Siciliano et al. §8.5.2):
+  :func:`gravity_gradient_bound` estimates α on a grid of the joint box.                   (T2)
+* Compliance control against a spring (A11, law C11, E2) with Σ_r ∥ Σ_d settles, per position
+  component of Σ_d, at x_e = (K_P + K)⁻¹(K_P x_d + K x_r)                                  (T3)
+  and presses with f = K (x_e − x_r) in Σ_d's axes.
+* Force control with integral action (A14, A15) reaches f_e = f_d along Image(K): a zero final
+  force error.                                                                             (T4)
+"""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+from scipy.optimize import root
+
+from armlab.dynamics import gravity_torque, inertia_matrix
+from armlab.model.robot import Robot
+
+
+def computed_torque_equilibrium(plant: Robot, controller, q_des) -> np.ndarray:
+    """q̃ = q_des − q at the rest equilibrium (T1) of ``plant`` under a
+    :class:`~armlab.control.joint_space.JointInverseDynamics` ``controller``."""
+    q_des = np.asarray(q_des, dtype=float)
+    model = controller.model
+    bias = controller.bias_model if controller.bias_model is not None else model
+    kp = np.asarray(controller.kp, dtype=float)
+
+    def residual(e):
+        q = q_des - e
+        return inertia_matrix(model, q) @ (kp @ e) + gravity_torque(bias, q) - gravity_torque(plant, q)
+
+    solution = root(residual, np.zeros_like(q_des), tol=1e-14)
+    if not solution.success or np.abs(residual(solution.x)).max() > 1e-9:
+        raise ArithmeticError(f"no rest equilibrium found near q_des ({solution.message})")
+    return solution.x
+
+
+def gravity_gradient_bound(robot: Robot, points_per_joint: int = 9, step: float = 1e-6) -> float:
+    """α of (T2): the largest spectral norm of ∂g/∂q (central differences) on a grid of
+    ``points_per_joint`` values per joint spanning its limits (±π for an unlimited revolute
+    joint).  A sampled maximum: a lower estimate of the supremum, exact when it lies on the grid."""
+    lo = np.where(np.isfinite(robot.arrays.q_min), robot.arrays.q_min, -np.pi)
+    hi = np.where(np.isfinite(robot.arrays.q_max), robot.arrays.q_max, np.pi)
+    axes = [np.linspace(a, b, points_per_joint) for a, b in zip(lo, hi, strict=True)]
+    worst = 0.0
+    for point in itertools.product(*axes):
+        q = np.array(point)
+        columns = []
+        for j in range(robot.n):
+            dq = np.zeros(robot.n)
+            dq[j] = step
+            columns.append((gravity_torque(robot, q + dq) - gravity_torque(robot, q - dq)) / (2 * step))
+        worst = max(worst, float(np.linalg.norm(np.column_stack(columns), 2)))
+    return worst
+
+
+def compliance_equilibrium(kp, stiffness, x_d, x_r):
+    """(x_e, f) of (T3), component by component in Σ_d's axes: x_e = (K_P + K)⁻¹(K_P x_d + K x_r),
+    f = K (x_e − x_r)."""
+    kp, stiffness = np.asarray(kp, dtype=float), np.asarray(stiffness, dtype=float)
+    x_e = (kp * np.asarray(x_d, dtype=float) + stiffness * np.asarray(x_r, dtype=float)) / (kp + stiffness)
+    return x_e, stiffness * (x_e - np.asarray(x_r, dtype=float))
+
+
+def predictions(scenario) -> list[tuple[str, tuple[str, ...], np.ndarray, tuple[str, ...]]]:
+    """The rows of the module docstring that ``scenario`` (an
+    :class:`~armlab.scenarios.Scenario`) has a theory for: (quantity, component labels,
+    predicted values, units).  Empty when no closed form applies."""
+    from armlab.control.interaction import ComplianceControl, ForceControl, ParallelForcePosition
+    from armlab.control.joint_space import JointInverseDynamics
+    from armlab.simulation.environment import Spring
+
+    controller, plant = scenario.controller, scenario.plant
+    t_final = float(scenario.simulation.get("t_final", 0.0))
+    if isinstance(controller, JointInverseDynamics):
+        q_des, qd_des, _ = controller.reference.evaluate(t_final)
+        if np.any(np.asarray(qd_des) != 0.0):
+            return []
+        e = computed_torque_equilibrium(plant, controller, q_des)
+        labels = tuple(j.name for j in plant.joints)
+        units = tuple("m" if j.kind == "prismatic" else "rad" for j in plant.joints)
+        return [("equilibrium q̃ (T1)", labels, e, units)]
+    if isinstance(controller, ComplianceControl) and isinstance(scenario.environment, Spring):
+        env, ref = scenario.environment, controller.reference
+        R_d, p_d = ref.rotations[-1], ref.positions[-1]
+        K = np.asarray(env.stiffness, dtype=float)
+        K = np.diag(K) if K.ndim == 1 else K
+        if (np.any(K[:3, :3] - np.diag(np.diag(K[:3, :3]))) or np.any(K[:3, 3:]) or np.any(K[3:, :3])
+                or not np.allclose(env.rest_rotation, R_d, atol=1e-12)):
+            return []  # (T3) needs Σ_r ∥ Σ_d and a diagonal translational stiffness
+        kp = np.diag(np.asarray(controller.kp if np.ndim(controller.kp) == 2 else np.diag(
+            np.broadcast_to(np.asarray(controller.kp, dtype=float), (6,))), dtype=float))[:3]
+        x_e, f = compliance_equilibrium(kp, np.diag(K)[:3], R_d.T @ p_d, R_d.T @ env.rest_position)
+        return [("equilibrium p_e (T3)", ("x", "y", "z"), R_d @ x_e, ("m",) * 3),
+                ("equilibrium contact force f_e (T3)", ("fx", "fy", "fz"), R_d @ f, ("N",) * 3)]
+    if isinstance(controller, (ForceControl, ParallelForcePosition)) and np.any(np.asarray(controller.ki)):
+        return [("final force error f_d − f_e along Image(K) (T4)", ("x", "y", "z"), np.zeros(3), ("N",) * 3)]
+    return []
