@@ -69,8 +69,10 @@ def test_the_seeds_a7_mismatch_settles_at_its_equilibrium():
 
 def test_compliance_equilibrium_matches_the_run():
     scenario = load_scenario("a11_compliance")
-    rows = {quantity: values for quantity, _, values, _ in predictions(scenario)}
+    rows = {p.quantity: p.values for p in predictions(scenario)}
     run = scenario.run()
+    for prediction in predictions(scenario):
+        np.testing.assert_allclose(prediction.measured(run), prediction.values, atol=1e-5)
     np.testing.assert_allclose(run.signals["p"][-1], rows["equilibrium p_e (T3)"], atol=1e-8)
     force = rows["equilibrium contact force f_e (T3)"]
     np.testing.assert_allclose(run.signals["h_e"][-1, :3], force, atol=1e-5)
@@ -85,3 +87,13 @@ def test_option_3_gains_against_the_gravity_gradient_bound():
     seed = load_scenario("a6_pd_desired").controller
     improved = load_scenario("a6_pd_desired_global").controller
     assert np.linalg.eigvalsh(seed.kp).min() < alpha < np.linalg.eigvalsh(improved.kp).min()
+
+
+def test_impedance_residual_vanishes_along_the_run():
+    """(T5) holds along the whole A12 regulation run: the residual is the finite-difference
+    error, small against the terms it balances."""
+    scenario = load_scenario("a12_impedance_regulation")
+    (prediction,) = predictions(scenario)
+    run = scenario.run()
+    rms = prediction.measured(run)
+    assert np.all(rms < 5e-4 * np.abs(run.signals["h_e"][:, :3]).max())

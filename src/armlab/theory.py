@@ -18,11 +18,16 @@ it (the report prints both side by side, :func:`predictions`).
   and presses with f = K (x_e − x_r) in Σ_d's axes.
 * Force control with integral action (A14, A15) reaches f_e = f_d along Image(K): a zero final
   force error.                                                                             (T4)
+* Impedance control (A12, law C12) with an exact model imposes, on the position task in Σ_d,
+  M_d x̃̈ + K_D x̃̇ + K_P x̃ = h_A, h_A = R_dᵀ f_e: the residual of that equation along a run
+  is zero (measured by finite differences of the logged x̃, so O(dt²)).                    (T5)
 """
 
 from __future__ import annotations
 
 import itertools
+from collections.abc import Callable
+from dataclasses import dataclass
 
 import numpy as np
 from scipy.optimize import root
@@ -76,11 +81,49 @@ def compliance_equilibrium(kp, stiffness, x_d, x_r):
     return x_e, stiffness * (x_e - np.asarray(x_r, dtype=float))
 
 
-def predictions(scenario) -> list[tuple[str, tuple[str, ...], np.ndarray, tuple[str, ...]]]:
-    """The rows of the module docstring that ``scenario`` (an
-    :class:`~armlab.scenarios.Scenario`) has a theory for: (quantity, component labels,
-    predicted values, units).  Empty when no closed form applies."""
-    from armlab.control.interaction import ComplianceControl, ForceControl, ParallelForcePosition
+@dataclass(frozen=True)
+class Prediction:
+    """What the theory says of one quantity, and how to read the same quantity off a run:
+    ``measured(result)`` gives the run's values (a window mean at the end, unless said)."""
+
+    quantity: str
+    labels: tuple[str, ...]
+    values: np.ndarray
+    units: tuple[str, ...]
+    measured: Callable | None = None
+
+
+def _final(signal: str, columns=slice(None)):
+    """The mean of ``signal`` over the last 5 % of a run (``armlab.metrics``)."""
+    from armlab.metrics import tail_slice
+
+    def measured(result):
+        return np.mean(result.signals[signal][tail_slice(result.t), columns], axis=0)
+    return measured
+
+
+def impedance_residual(result, controller) -> np.ndarray:
+    """(N, 3) residual of (T5) along ``result`` of an impedance ``controller`` with a constant
+    pose reference: M_d x̃̈ + K_D x̃̇ + K_P x̃ − R_dᵀ f_e, x̃̇ and x̃̈ by central differences."""
+    t, e = result.t, result.signals["x_err"][:, :3]
+    e_dot = np.gradient(e, t, axis=0)
+    e_ddot = np.gradient(e_dot, t, axis=0)
+    h_A = result.signals["h_e"][:, :3] @ controller.reference.rotations[-1]
+    diag = [np.diag(np.atleast_2d(np.asarray(g, dtype=float))) if np.ndim(g) == 2
+            else np.broadcast_to(np.asarray(g, dtype=float), (3,))
+            for g in (controller.mass, controller.kd, controller.kp)]
+    return diag[0] * e_ddot + diag[1] * e_dot + diag[2] * e - h_A
+
+
+def predictions(scenario) -> list[Prediction]:
+    """The predictions of the module docstring that ``scenario`` (an
+    :class:`~armlab.scenarios.Scenario`) has a theory for; empty when none applies."""
+    from armlab.control.interaction import (
+        ComplianceControl,
+        ForceControl,
+        ImpedanceControl,
+        ParallelForcePosition,
+    )
     from armlab.control.joint_space import JointInverseDynamics
     from armlab.simulation.environment import Spring
 
@@ -93,7 +136,7 @@ def predictions(scenario) -> list[tuple[str, tuple[str, ...], np.ndarray, tuple[
         e = computed_torque_equilibrium(plant, controller, q_des)
         labels = tuple(j.name for j in plant.joints)
         units = tuple("m" if j.kind == "prismatic" else "rad" for j in plant.joints)
-        return [("equilibrium q̃ (T1)", labels, e, units)]
+        return [Prediction("equilibrium q̃ (T1)", labels, e, units, _final("q_err"))]
     if isinstance(controller, ComplianceControl) and isinstance(scenario.environment, Spring):
         env, ref = scenario.environment, controller.reference
         R_d, p_d = ref.rotations[-1], ref.positions[-1]
@@ -105,8 +148,17 @@ def predictions(scenario) -> list[tuple[str, tuple[str, ...], np.ndarray, tuple[
         kp = np.diag(np.asarray(controller.kp if np.ndim(controller.kp) == 2 else np.diag(
             np.broadcast_to(np.asarray(controller.kp, dtype=float), (6,))), dtype=float))[:3]
         x_e, f = compliance_equilibrium(kp, np.diag(K)[:3], R_d.T @ p_d, R_d.T @ env.rest_position)
-        return [("equilibrium p_e (T3)", ("x", "y", "z"), R_d @ x_e, ("m",) * 3),
-                ("equilibrium contact force f_e (T3)", ("fx", "fy", "fz"), R_d @ f, ("N",) * 3)]
+        return [Prediction("equilibrium p_e (T3)", ("x", "y", "z"), R_d @ x_e, ("m",) * 3, _final("p")),
+                Prediction("equilibrium contact force f_e (T3)", ("fx", "fy", "fz"), R_d @ f, ("N",) * 3,
+                           _final("h_e", slice(0, 3)))]
     if isinstance(controller, (ForceControl, ParallelForcePosition)) and np.any(np.asarray(controller.ki)):
-        return [("final force error f_d − f_e along Image(K) (T4)", ("x", "y", "z"), np.zeros(3), ("N",) * 3)]
+        return [Prediction("final force error f_d − f_e along Image(K) (T4)", ("x", "y", "z"), np.zeros(3),
+                           ("N",) * 3)]
+    if (isinstance(controller, ImpedanceControl) and len(controller.reference.times) == 1
+            and tuple(controller.task) == (0, 1, 2) and controller.frame == "desired"):
+        def rms_residual(result):
+            # The first and last two samples carry one-sided differences.
+            return np.sqrt(np.mean(impedance_residual(result, controller)[2:-2] ** 2, axis=0))
+        return [Prediction("impedance residual M_d x̃̈ + K_D x̃̇ + K_P x̃ − h_A (T5), RMS", ("x", "y", "z"),
+                           np.zeros(3), ("N",) * 3, rms_residual)]
     return []

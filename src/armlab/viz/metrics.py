@@ -26,10 +26,6 @@ import numpy as np
 from armlab.metrics import WINDOW, overshoot, settling_time, steady_state, tail_slice, time_at_limit
 from armlab.viz.layout import FORCE_REFERENCES, pretty
 
-# The measured counterpart of each prediction's signal (armlab.theory.predictions).
-PREDICTED_SIGNALS = {"equilibrium q̃ (T1)": "q_err", "equilibrium p_e (T3)": "p",
-                     "equilibrium contact force f_e (T3)": "h_e"}
-
 
 @dataclass(frozen=True)
 class Metric:
@@ -52,7 +48,7 @@ class Metric:
 
 def measure(result, predicted=()) -> list[Metric]:
     """Every metric of the module docstring that ``result`` has the signals for; ``predicted``
-    the rows of :func:`armlab.theory.predictions` for its scenario."""
+    the :class:`armlab.theory.Prediction` s of its scenario."""
     t = np.asarray(result.t)
     tail = tail_slice(t, WINDOW)
     half = slice(t.size // 2, None)
@@ -121,11 +117,15 @@ def measure(result, predicted=()) -> list[Metric]:
             mismatch = np.sum(regressor * (result.z - np.asarray(true_values, dtype=float)), axis=1)
             rows.append(Metric("RMS Y(π̂ − π) (2nd half)", "", float(np.sqrt(np.mean(mismatch[half] ** 2))),
                                result.units["tau"][0]))
-    for quantity, labels, values, units in predicted:
-        signal = result.signals.get(PREDICTED_SIGNALS.get(quantity, ""))
-        for k, label in enumerate(labels):
-            rows.append(Metric(f"{quantity}, theory", pretty(label), float(values[k]), units[k]))
-            if signal is not None and k < signal.shape[1]:
-                rows.append(Metric(f"{quantity}, run (mean, last 5 %)", pretty(label),
-                                   float(np.mean(signal[tail, k])), units[k]))
+    for prediction in predicted:
+        try:
+            run = None if prediction.measured is None else prediction.measured(result)
+        except (KeyError, IndexError):   # a run stopped early may lack what is measured
+            run = None
+        for k, label in enumerate(prediction.labels):
+            rows.append(Metric(f"{prediction.quantity}, theory", pretty(label),
+                               float(prediction.values[k]), prediction.units[k]))
+            if run is not None:
+                rows.append(Metric(f"{prediction.quantity}, run", pretty(label), float(run[k]),
+                                   prediction.units[k]))
     return rows
