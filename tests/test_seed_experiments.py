@@ -51,3 +51,17 @@ def test_a8_literal_seed_plant_diverges_and_faster_gains_converge():
     faster = load_scenario("a8_case2_square_faster").run()
     t, e = faster.t, np.abs(faster.signals["q_err"][:, 0])
     assert e[t >= 45.0].max() < 0.15 * e[t < 5.0].max()
+
+
+def test_saturation_overshoot_needs_a_long_saturation():
+    """Clipping at ±20 N delays joint 1 at ω_n = 30 rad/s but makes it overshoot at 60 rad/s;
+    unsaturated, the critically damped design never overshoots."""
+    from armlab.metrics import overshoot
+
+    def joint1_overshoot(name):
+        result = load_scenario(name).run()
+        return overshoot(result.t, result.signals["q_err"][:, 0])
+
+    assert joint1_overshoot("a7_id_high_gain") == joint1_overshoot("a7_id_higher_gain") == 0.0
+    assert joint1_overshoot("a7_id_high_gain_saturated") == 0.0
+    assert joint1_overshoot("a7_id_higher_gain_saturated") > 10.0
