@@ -97,3 +97,11 @@ def test_impedance_residual_vanishes_along_the_run():
     run = scenario.run()
     rms = prediction.measured(run)
     assert np.all(rms < 5e-4 * np.abs(run.signals["h_e"][:, :3]).max())
+
+
+def test_predictions_travel_to_worker_processes():
+    import pickle
+
+    for name in ("a7_id_mismatch", "a11_compliance", "a12_impedance_regulation", "a15_parallel_contact"):
+        for prediction in pickle.loads(pickle.dumps(predictions(load_scenario(name)))):
+            assert prediction.quantity

@@ -13,9 +13,9 @@ it (the report prints both side by side, :func:`predictions`).
 * PD + g(q_des) (A6 option 3, law C1) is globally asymptotically stable when
   λ_min(K_P) > α,  α ≥ ‖∂g/∂q‖ over the joint space (Tomei 1991; Siciliano et al. §8.5.2):
   :func:`gravity_gradient_bound` estimates α on a grid of the joint box.                   (T2)
-* Compliance control against a spring (A11, law C11, E2) with Σ_r ∥ Σ_d settles, per position
-  component of Σ_d, at x_e = (K_P + K)⁻¹(K_P x_d + K x_r)                                  (T3)
-  and presses with f = K (x_e − x_r) in Σ_d's axes.
+* Compliance control against a spring (A11, law C11, E2) settles at
+  x_e = (K_P + K)⁻¹(K_P x_d + K x_r), both stiffnesses in Σ_0's axes (K_P acts in Σ_d's or
+  Σ_0's, K in Σ_r's), and presses with f = K (x_e − x_r)                                   (T3)
 * Force control with integral action (A14, A15) reaches f_e = f_d along Image(K): a zero final
   force error.                                                                             (T4)
 * Impedance control (A12, law C12) with an exact model imposes, on the position task in Σ_d,
@@ -32,6 +32,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import root
 
+from armlab.control.gains import gain_matrix
 from armlab.dynamics import gravity_torque, inertia_matrix
 from armlab.model.robot import Robot
 
@@ -54,16 +55,23 @@ def computed_torque_equilibrium(plant: Robot, controller, q_des) -> np.ndarray:
     return solution.x
 
 
-def gravity_gradient_bound(robot: Robot, points_per_joint: int = 9, step: float = 1e-6) -> float:
-    """α of (T2): the largest spectral norm of ∂g/∂q (central differences) on a grid of
-    ``points_per_joint`` values per joint spanning its limits (±π for an unlimited revolute
-    joint).  A sampled maximum: a lower estimate of the supremum, exact when it lies on the grid."""
-    lo = np.where(np.isfinite(robot.arrays.q_min), robot.arrays.q_min, -np.pi)
-    hi = np.where(np.isfinite(robot.arrays.q_max), robot.arrays.q_max, np.pi)
-    axes = [np.linspace(a, b, points_per_joint) for a, b in zip(lo, hi, strict=True)]
+def gravity_gradient_bound(robot: Robot, points_per_joint: int = 9, step: float = 1e-6,
+                           samples: int = 4000, seed: int = 0) -> float:
+    """α of (T2): the largest spectral norm of ∂g/∂q (central differences) over the joint box
+    (the limits, ±π for an unlimited revolute joint, ±0.5 m for an unlimited prismatic one):
+    on a grid of ``points_per_joint`` values per joint when that has at most ``samples``
+    points, else at ``samples`` seeded random points.  A sampled maximum: a lower estimate of
+    the supremum, exact when it lies on a sample."""
+    unlimited = np.array([np.pi if j.kind == "revolute" else 0.5 for j in robot.joints])
+    lo = np.where(np.isfinite(robot.arrays.q_min), robot.arrays.q_min, -unlimited)
+    hi = np.where(np.isfinite(robot.arrays.q_max), robot.arrays.q_max, unlimited)
+    if points_per_joint ** robot.n <= samples:
+        axes = [np.linspace(a, b, points_per_joint) for a, b in zip(lo, hi, strict=True)]
+        points = np.array(list(itertools.product(*axes)))
+    else:
+        points = lo + np.random.default_rng(seed).random((samples, robot.n)) * (hi - lo)
     worst = 0.0
-    for point in itertools.product(*axes):
-        q = np.array(point)
+    for q in points:
         columns = []
         for j in range(robot.n):
             dq = np.zeros(robot.n)
@@ -74,11 +82,13 @@ def gravity_gradient_bound(robot: Robot, points_per_joint: int = 9, step: float 
 
 
 def compliance_equilibrium(kp, stiffness, x_d, x_r):
-    """(x_e, f) of (T3), component by component in Σ_d's axes: x_e = (K_P + K)⁻¹(K_P x_d + K x_r),
-    f = K (x_e − x_r)."""
-    kp, stiffness = np.asarray(kp, dtype=float), np.asarray(stiffness, dtype=float)
-    x_e = (kp * np.asarray(x_d, dtype=float) + stiffness * np.asarray(x_r, dtype=float)) / (kp + stiffness)
-    return x_e, stiffness * (x_e - np.asarray(x_r, dtype=float))
+    """(x_e, f) of (T3) with K_P and K (3, 3) in one frame's axes (or their diagonals):
+    x_e = (K_P + K)⁻¹(K_P x_d + K x_r), f = K (x_e − x_r)."""
+    kp, stiffness = (np.diag(v) if np.ndim(v) == 1 else np.asarray(v, dtype=float)
+                     for v in (np.asarray(kp, dtype=float), np.asarray(stiffness, dtype=float)))
+    x_d, x_r = np.asarray(x_d, dtype=float), np.asarray(x_r, dtype=float)
+    x_e = np.linalg.solve(kp + stiffness, kp @ x_d + stiffness @ x_r)
+    return x_e, stiffness @ (x_e - x_r)
 
 
 @dataclass(frozen=True)
@@ -93,13 +103,31 @@ class Prediction:
     measured: Callable | None = None
 
 
-def _final(signal: str, columns=slice(None)):
-    """The mean of ``signal`` over the last 5 % of a run (``armlab.metrics``)."""
-    from armlab.metrics import tail_slice
+@dataclass(frozen=True)
+class _FinalMean:
+    """A run's ``signal`` (its ``columns``) averaged over the last 5 % (``armlab.metrics``).
+    A class, not a closure: predictions travel to the report's worker processes."""
 
-    def measured(result):
-        return np.mean(result.signals[signal][tail_slice(result.t), columns], axis=0)
-    return measured
+    signal: str
+    columns: tuple[int, ...] | None = None
+
+    def __call__(self, result):
+        from armlab.metrics import tail_slice
+
+        data = result.signals[self.signal]
+        data = data if self.columns is None else data[:, list(self.columns)]
+        return np.mean(data[tail_slice(result.t)], axis=0)
+
+
+@dataclass(frozen=True)
+class _ImpedanceRMS:
+    """The RMS over a run of the residual of (T5) for ``controller``."""
+
+    controller: object
+
+    def __call__(self, result):
+        # The first and last two samples carry one-sided differences.
+        return np.sqrt(np.mean(impedance_residual(result, self.controller)[2:-2] ** 2, axis=0))
 
 
 def impedance_residual(result, controller) -> np.ndarray:
@@ -136,29 +164,29 @@ def predictions(scenario) -> list[Prediction]:
         e = computed_torque_equilibrium(plant, controller, q_des)
         labels = tuple(j.name for j in plant.joints)
         units = tuple("m" if j.kind == "prismatic" else "rad" for j in plant.joints)
-        return [Prediction("equilibrium q̃ (T1)", labels, e, units, _final("q_err"))]
+        return [Prediction("equilibrium q̃ (T1)", labels, e, units, _FinalMean("q_err"))]
     if isinstance(controller, ComplianceControl) and isinstance(scenario.environment, Spring):
         env, ref = scenario.environment, controller.reference
-        R_d, p_d = ref.rotations[-1], ref.positions[-1]
         K = np.asarray(env.stiffness, dtype=float)
         K = np.diag(K) if K.ndim == 1 else K
-        if (np.any(K[:3, :3] - np.diag(np.diag(K[:3, :3]))) or np.any(K[:3, 3:]) or np.any(K[3:, :3])
-                or not np.allclose(env.rest_rotation, R_d, atol=1e-12)):
-            return []  # (T3) needs Σ_r ∥ Σ_d and a diagonal translational stiffness
-        kp = np.diag(np.asarray(controller.kp if np.ndim(controller.kp) == 2 else np.diag(
-            np.broadcast_to(np.asarray(controller.kp, dtype=float), (6,))), dtype=float))[:3]
-        x_e, f = compliance_equilibrium(kp, np.diag(K)[:3], R_d.T @ p_d, R_d.T @ env.rest_position)
-        return [Prediction("equilibrium p_e (T3)", ("x", "y", "z"), R_d @ x_e, ("m",) * 3, _final("p")),
-                Prediction("equilibrium contact force f_e (T3)", ("fx", "fy", "fz"), R_d @ f, ("N",) * 3,
-                           _final("h_e", slice(0, 3)))]
+        task = tuple(controller.task)
+        if np.any(K[:3, 3:]) or np.any(K[3:, :3]) or not {0, 1, 2} <= set(task):
+            return []  # (T3) needs the translation decoupled from the rotation, all of it controlled
+        R_d, p_d = ref.rotations[-1], ref.positions[-1]
+        kp = gain_matrix(controller.kp, 6, "kp", components=task)[:3, :3]
+        # Both stiffnesses in Σ_0's axes: K_P acts in Σ_d's ("desired") or Σ_0's ("base").
+        R_kp = R_d if controller.frame == "desired" else np.eye(3)
+        R_r = np.asarray(env.rest_rotation, dtype=float)
+        kp0, k0 = R_kp @ kp @ R_kp.T, R_r @ K[:3, :3] @ R_r.T
+        x_e, f = compliance_equilibrium(kp0, k0, p_d, env.rest_position)
+        return [Prediction("equilibrium p_e (T3)", ("x", "y", "z"), x_e, ("m",) * 3, _FinalMean("p")),
+                Prediction("equilibrium contact force f_e (T3)", ("fx", "fy", "fz"), f, ("N",) * 3,
+                           _FinalMean("h_e", (0, 1, 2)))]
     if isinstance(controller, (ForceControl, ParallelForcePosition)) and np.any(np.asarray(controller.ki)):
         return [Prediction("final force error f_d − f_e along Image(K) (T4)", ("x", "y", "z"), np.zeros(3),
                            ("N",) * 3)]
     if (isinstance(controller, ImpedanceControl) and len(controller.reference.times) == 1
             and tuple(controller.task) == (0, 1, 2) and controller.frame == "desired"):
-        def rms_residual(result):
-            # The first and last two samples carry one-sided differences.
-            return np.sqrt(np.mean(impedance_residual(result, controller)[2:-2] ** 2, axis=0))
         return [Prediction("impedance residual M_d x̃̈ + K_D x̃̇ + K_P x̃ − h_A (T5), RMS", ("x", "y", "z"),
-                           np.zeros(3), ("N",) * 3, rms_residual)]
+                           np.zeros(3), ("N",) * 3, _ImpedanceRMS(controller))]
     return []

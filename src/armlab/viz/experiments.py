@@ -12,6 +12,7 @@ from __future__ import annotations
 import re
 import tomllib
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 
@@ -131,10 +132,29 @@ def experiment_from_scenario(scenario, t_final: float | None = None) -> Experime
                       predicted=predictions(scenario))
 
 
-def discover(robot: Robot, *, quick: bool = False) -> list[Experiment]:
+def discover(robot: Robot, *, quick: bool = False, course_dir=None) -> list[Experiment]:
     """Every registered scenario of ``robot`` as an :class:`Experiment` ready to run, by
-    assignment; ``quick`` shortens each run to :data:`QUICK_T_FINAL`."""
+    assignment; ``quick`` shortens each run to :data:`QUICK_T_FINAL`.  A robot without bundled
+    scenarios gets the course generated for it (:mod:`armlab.course`), written to
+    ``course_dir`` (a temporary folder if None) so that each experiment's file can be rerun."""
+    scenarios = [s for s in list_scenarios() if _belongs(s.plant.name, robot.name)]
+    if not scenarios:
+        scenarios = _course(robot, course_dir)
     experiments = [experiment_from_scenario(scenario, QUICK_T_FINAL if quick else None)
-                   for scenario in list_scenarios() if _belongs(scenario.plant.name, robot.name)]
+                   for scenario in scenarios]
     experiments.sort(key=lambda e: (e.assignment, e.name))
     return experiments
+
+
+def _course(robot: Robot, folder) -> list:
+    """The scenarios :mod:`armlab.course` generates for ``robot``, loaded from their files."""
+    import tempfile
+
+    from armlab.course import write_course
+    from armlab.robots import bundled_robot_names
+    from armlab.scenarios import load_scenario_file
+
+    reference = robot.name if robot.name in bundled_robot_names() else str(Path(robot.source).resolve())
+    folder = Path(folder) if folder is not None else Path(tempfile.mkdtemp(prefix="armlab-course-"))
+    paths, _ = write_course(robot, reference, folder)
+    return [load_scenario_file(path) for path in paths]

@@ -325,7 +325,8 @@ def build_report(robot: str | Robot = "prp", out_dir: str | Path = "report", *, 
         robot = load_robot(robot)
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
-    planned = list(experiments) if experiments is not None else discover(robot, quick=quick)
+    planned = (list(experiments) if experiments is not None
+               else discover(robot, quick=quick, course_dir=out_dir / "course"))
     progress = Progress(len(planned) + 7, enabled=show_progress)
 
     def here():
