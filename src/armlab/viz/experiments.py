@@ -128,8 +128,16 @@ def experiment_from_scenario(scenario, t_final: float | None = None) -> Experime
     return Experiment(name=scenario.name, assignment=number, title=scenario.title,
                       description=scenario.description, parameters=parameters, robot=scenario.plant,
                       plane=environment_plane(scenario.environment), runner=runner,
-                      scenario=scenario.name, t_final=short, kind=type(scenario.controller).__name__,
+                      scenario=_reloadable(scenario), t_final=short, kind=type(scenario.controller).__name__,
                       predicted=predictions(scenario))
+
+
+def _reloadable(scenario) -> str:
+    """What a worker process loads the scenario by: its bundled name, else its file."""
+    from armlab.scenarios import bundled_scenario_names
+
+    bundled = scenario.name in bundled_scenario_names() or not scenario.source
+    return scenario.name if bundled else scenario.source
 
 
 def discover(robot: Robot, *, quick: bool = False, course_dir=None) -> list[Experiment]:
