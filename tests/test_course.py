@@ -92,3 +92,14 @@ def test_names_from_the_robot_file_are_quoted_not_pasted():
     files, _ = course_scenarios(robot, 'x"\n[controller]\ntype = "evil')
     for text in files.values():
         assert tomllib.loads(text)["plant"] == 'x"\n[controller]\ntype = "evil'
+
+
+def test_report_workers_reload_a_generated_experiment_from_its_file(tmp_path):
+    """A course reuses the bundled names (a11_compliance …): a worker must load the file."""
+    from armlab.viz.experiments import discover, experiment_from_scenario
+
+    puma = armlab.load_robot("puma560")
+    experiments = discover(puma, course_dir=tmp_path)
+    compliance = next(e for e in experiments if e.name == "a11_compliance")
+    assert compliance.scenario == str(tmp_path / "a11_compliance.toml")
+    assert experiment_from_scenario(compliance.scenario).robot.name == "puma560"

@@ -49,6 +49,7 @@ def test_overshoot_of_a_second_order_step(zeta):
     # The lightest damping still rings at 1e-4 in the final window, which sets e_∞ (rel 1e-3).
     assert overshoot(T, e) == pytest.approx(expected, rel=1e-3)
     assert overshoot(T, np.exp(-T / 0.5)) < 1e-6   # monotone (e_∞ is a window mean: ~1e-9 off)
+    assert overshoot(T, T * np.exp(-T)) is None     # starts at rest: not a step response
 
 
 def test_the_seeds_a7_mismatch_settles_at_its_equilibrium():

@@ -10,7 +10,8 @@ Definitions (each over one component e(t) sampled at times t; "the window" is th
   for the rest of the run: settling into a band around the final value, whatever that value
   is (a constant offset settles); ``None`` if the last sample is outside the band;
 * overshoot — how far e goes past e_∞ on the side opposite to its start, in % of the initial
-  distance |e(t_0) − e_∞| (0 for a monotone response; ``None`` when it starts at e_∞);
+  distance |e(t_0) − e_∞| (0 for a monotone response); defined for step responses only, where
+  e starts at its largest distance from e_∞ (``None`` otherwise, e.g. a velocity error);
 * time at a limit — the share of samples with |τ| at the limit (within 1e-9 relative).
 """
 
@@ -54,10 +55,12 @@ def settling_time(t: np.ndarray, e: np.ndarray, band: float = BAND, fraction: fl
 
 
 def overshoot(t: np.ndarray, e: np.ndarray, fraction: float = WINDOW) -> float | None:
-    """Overshoot [%] of ``e`` past its final value, relative to its initial distance from it."""
+    """Overshoot [%] of ``e`` past its final value, relative to its initial distance from it;
+    ``None`` unless e starts at its largest distance from the final value (a step response:
+    a signal that starts at rest, like a velocity error, has no overshoot to speak of)."""
     final, _, _ = steady_state(t, e, fraction)
     start = float(e[0]) - final
-    if start == 0.0:
+    if start == 0.0 or abs(start) < float(np.max(np.abs(np.asarray(e, dtype=float) - final))) * (1 - 1e-9):
         return None
     beyond = -np.sign(start) * (np.asarray(e, dtype=float) - final)
     return 100.0 * max(0.0, float(np.max(beyond))) / abs(start)

@@ -133,11 +133,9 @@ def experiment_from_scenario(scenario, t_final: float | None = None) -> Experime
 
 
 def _reloadable(scenario) -> str:
-    """What a worker process loads the scenario by: its bundled name, else its file."""
-    from armlab.scenarios import bundled_scenario_names
-
-    bundled = scenario.name in bundled_scenario_names() or not scenario.source
-    return scenario.name if bundled else scenario.source
+    """What a worker process loads the scenario by: its file (a generated course reuses the
+    bundled names), or its name when it has none."""
+    return str(scenario.source) if scenario.source else scenario.name
 
 
 def discover(robot: Robot, *, quick: bool = False, course_dir=None) -> list[Experiment]:
