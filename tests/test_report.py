@@ -262,3 +262,43 @@ def test_animation_subject_is_chosen_early_only_when_no_pending_run_can_change_i
     assert animation_subject([diverged, free], "prp", final=False) is None  # not a final choice yet
     assert animation_subject([diverged, free], "prp") is free
     assert animation_subject([], "prp") is None
+
+
+def _ink_runs(pixels: np.ndarray) -> int:
+    """Runs of consecutive rows that hold ink (dark pixels) in a grey image."""
+    inked = (pixels < 128).any(axis=1).astype(int)
+    return int(np.sum(np.diff(np.concatenate([[0], inked])) == 1))
+
+
+def test_time_derivatives_render_with_a_separate_dot_in_chromium(tmp_path):
+    """θ̇ and ḋ as the report prints them, drawn by Chromium with the report's style: a dot
+    above the letter with background between them (a dot fused into the letter, or none,
+    gives one run of inked rows, as the plain θ of the control does)."""
+    if CHROMIUM is None:
+        pytest.skip("chromium not installed: apt-get install -y chromium (or .ci/run) to run this check")
+    import sympy as sp
+
+    from armlab.symbolic import to_mathml
+    from armlab.viz.html import document
+
+    names = ("thetadot", "ddot", "thetaddot", "theta")
+    boxes = "".join(f'<div style="position:absolute;left:20px;top:{20 + 160 * k}px">'
+                    f'<math style="font-size:80px">{to_mathml(sp.Symbol(name))}</math></div>'
+                    for k, name in enumerate(names))
+    page = tmp_path / "dots.html"
+    page.write_text(document("dots", [], [], '<div style="position:fixed;inset:0;background:#fff;'
+                                             f'z-index:9">{boxes}</div>'), encoding="utf-8")
+    shot_path = tmp_path / "dots.png"
+    recorder = _ConnectionRecorder()
+    try:
+        shot = _run_chromium(tmp_path, page, ["--window-size=300,680", f"--screenshot={shot_path}"],
+                             recorder.port)
+    finally:
+        recorder.close()
+    assert shot.returncode == 0, shot.stderr[-2000:]
+    from PIL import Image
+
+    with Image.open(shot_path) as image:
+        pixels = np.asarray(image.convert("L"), dtype=float)
+    runs = [_ink_runs(pixels[10 + 160 * k: 170 + 160 * k]) for k in range(len(names))]
+    assert runs == [2, 2, 2, 1], dict(zip(names, runs))

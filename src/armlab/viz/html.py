@@ -45,8 +45,10 @@ td.num { text-align: right; font-variant-numeric: tabular-nums; font-family: "De
 .tables { display: flex; flex-wrap: wrap; gap: 0 24px; align-items: flex-start; }
 .tables td { max-width: 250px; overflow-wrap: anywhere; }
 .tables td.num { font-size: 12.5px; white-space: nowrap; }
+/* A formula too wide for the space beside its label goes under it; one still too wide (a single
+   term wider than the page) scrolls inside its box. */
 .formula { margin: 8px 0; overflow-x: auto; overflow-y: hidden; padding: 2px 0; display: flex;
-           align-items: center; gap: 18px; }
+           flex-wrap: wrap; align-items: center; gap: 4px 18px; }
 .formula .label { flex: 0 0 250px; }
 .formula math { margin: 0; }
 math { font-family: "DejaVu Math TeX Gyre", "STIX Two Math", "Latin Modern Math", math; }
