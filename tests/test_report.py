@@ -302,3 +302,56 @@ def test_time_derivatives_render_with_a_separate_dot_in_chromium(tmp_path):
         pixels = np.asarray(image.convert("L"), dtype=float)
     runs = [_ink_runs(pixels[10 + 160 * k: 170 + 160 * k]) for k in range(len(names))]
     assert runs == [2, 2, 2, 1], dict(zip(names, runs))
+
+
+def test_experiments_come_in_the_seeds_order():
+    """Option 1 before option 3 (A6), free motion before contact (A15): an explicit order,
+    which alphabetical order would break."""
+    import armlab
+    from armlab.viz.experiments import discover
+
+    names = [e.name for e in discover(armlab.load_robot("prp"), quick=True)]
+    assert names.index("a6_pd_online") < names.index("a6_pd_none") < names.index("a6_pd_desired")
+    assert names.index("a15_parallel_free") < names.index("a15_parallel_contact")
+    assert sorted(names) != names
+    numbers = [assignment_number(n) for n in names]
+    assert numbers == sorted(numbers)
+
+
+def test_seed_notes_are_read_from_the_docs_pages(tmp_path):
+    """Each section's notes come from its page's section about the seed, rendered as HTML
+    (lists, code, emphasis, tables; prose escaped), read at build time: a changed page shows."""
+    from armlab.viz.notes import DOCS, markdown_html, seed_notes
+
+    page = (tmp_path / "A7-x.md")
+    page.write_text("# A7\n\nintro\n\n## Results\n\nnot this\n\n## Notes on the seed\n\n"
+                    "* one `τ < 1` **two**\n  continued\n\n      code line\n* three\n\n"
+                    "| a | b |\n|---|---|\n| 1 | *x* |\n\n## Any robot\n\nnot this either\n",
+                    encoding="utf-8")
+    ((heading, text),) = seed_notes(7, tmp_path)
+    assert heading == "Notes on the seed" and "not this" not in text
+    rendered = markdown_html(text)
+    assert rendered.startswith("<ul><li><p>one <code>τ &lt; 1</code> <strong>two</strong> continued")
+    assert "<pre>code line</pre>" in rendered and "<li>three</li>" in rendered
+    assert "<td><em>x</em></td>" in rendered
+    assert seed_notes(9, tmp_path) == []
+    # The shipped pages: every assignment A1–A15 has its note.
+    assert all(seed_notes(n, DOCS) for n in range(1, 16))
+
+
+def test_report_shows_each_sections_seed_note_and_the_metric_definitions(report):
+    report, scenarios = report
+    text = report.read_text(encoding="utf-8")
+    import html as html_module
+
+    from armlab.viz.notes import DOCS, seed_notes
+
+    sections = dict(re.findall(r'data-assignment="([^"]+)">(.*?)</section>', text, re.S))
+    for number in (1, 2, 3, 4, 5, *{assignment_number(n) for n in scenarios}):
+        body = sections[f"A{number}"]
+        assert '<aside class="seed-note">' in body, number
+        # A sentence of the page's own note, as the reader sees it in the section.
+        first = seed_notes(number, DOCS)[0][1]
+        words = re.sub(r"[`*]", "", first.split("\n")[0].lstrip("* ")).split()[:6]
+        assert html_module.escape(" ".join(words), quote=False) in re.sub(r"<[^>]+>", "", body), number
+    assert "steady-state" in sections["metrics"] and "settling" in sections["metrics"]

@@ -63,6 +63,14 @@ math[display="block"] { font-size: 17px; text-align: left; }
 .diverged { color: var(--bad); font-weight: 600; }
 .missing { color: var(--muted); font-style: italic; }
 .note { color: var(--muted); font-size: 13.5px; }
+.seed-note { max-width: 1000px; margin: 10px 0 16px; padding: 8px 16px; background: #f4f7fb;
+             border-left: 3px solid var(--accent); font-size: 14px; }
+.seed-note h3 { margin: 2px 0 4px; font-size: 16px; }
+.seed-note h4 { margin: 8px 0 2px; font-size: 14px; }
+.seed-note ul { margin: 4px 0; padding-left: 20px; }
+.seed-note p { margin: 4px 0; }
+.seed-note pre { font: 12.5px/1.4 "DejaVu Sans Mono", monospace; background: #eef1f5; padding: 6px 10px;
+                 overflow-x: auto; }
 code { font-family: "DejaVu Sans Mono", monospace; font-size: 13px; background: #eef1f5;
        padding: 1px 4px; border-radius: 3px; }
 """

@@ -42,6 +42,7 @@ from armlab.viz.experiments import (  # noqa: E402, F401 — ReportError, assign
     experiment_from_scenario,
 )
 from armlab.viz.metrics import Metric, measure  # noqa: E402
+from armlab.viz.notes import markdown_html, metric_definitions, seed_notes, source_name  # noqa: E402
 from armlab.viz.progress import Progress  # noqa: E402
 from armlab.viz.scopes import SCOPE_DPI, scope_layout, scope_png  # noqa: E402
 
@@ -157,7 +158,7 @@ def _experiment_html(exp: Experiment) -> str:
         headers, rows = metric_table(exp.metrics)
         tables.append(html.table(headers, rows, numeric=set(range(1, len(headers))),
                                  caption=f"measured on the run (simulated in {exp.seconds:.1f} s wall time, "
-                                         "compilation included)"))
+                                         "compilation included; definitions at the end of the report)"))
     parts.append('<div class="tables">' + "".join(tables) + "</div>")
     result = exp.result
     if exp.error:
@@ -386,8 +387,16 @@ def build_report(robot: str | Robot = "prp", out_dir: str | Path = "report", *, 
             missing.append(f"A{number}")
             continue
         sections.append(f'<section class="assignment" id="A{number}" data-assignment="A{number}">'
-                        f"<h2>A{number} — {html.escape(title)}</h2>{content}</section>")
+                        f"<h2>A{number} — {html.escape(title)}</h2>{_seed_note_html(number)}{content}"
+                        "</section>")
         nav.append((f"A{number}", f"A{number}"))
+    if any(exp.metrics for exp in planned):
+        sections.append('<section class="assignment" id="metrics" data-assignment="metrics">'
+                        "<h2>How the measured numbers are defined</h2>"
+                        f'<div class="seed-note">{metric_definitions()}'
+                        '<p class="note">From the docstring of armlab.viz.metrics, which computes them.</p>'
+                        "</div></section>")
+        nav.append(("metrics", "metrics"))
     unnumbered = [b for k, v in bodies.items() if k not in ASSIGNMENTS for b in v]
     if unnumbered:
         sections.append('<section class="assignment" id="other" data-assignment="other">'
@@ -409,6 +418,19 @@ def build_report(robot: str | Robot = "prp", out_dir: str | Path = "report", *, 
     path.write_text(page, encoding="utf-8")
     progress.close(f"wrote {path} ({path.stat().st_size / 1e6:.1f} MB)")
     return path
+
+
+def _seed_note_html(number: int) -> str:
+    """Assignment ``number``'s notes on the seed, read from its docs page now (one source for
+    the docs and the report); a line saying they are missing when the page is not there."""
+    notes = seed_notes(number)
+    if not notes:
+        return ""
+    parts = ['<aside class="seed-note"><h3>The seed and armlab</h3>']
+    for heading, text in notes:
+        parts.append(f"<h4>{html.escape(heading)}</h4>{markdown_html(text)}")
+    parts.append(f'<p class="note">From {html.escape(source_name(number))}.</p></aside>')
+    return "".join(parts)
 
 
 def _drawings_block(drawings: str) -> str:
