@@ -33,6 +33,7 @@ from armlab.model.robot import Robot  # noqa: E402
 from armlab.robots import load_robot  # noqa: E402
 from armlab.viz import html  # noqa: E402
 from armlab.viz.animation import animate_robot, joint_spans, motion_window  # noqa: E402
+from armlab.viz.comparisons import COMPARISONS, comparison_scope, impedance_scope  # noqa: E402
 from armlab.viz.drawing import draw_robot  # noqa: E402
 from armlab.viz.experiments import (  # noqa: E402, F401 — ReportError, assignment_number: public here too
     Experiment,
@@ -177,11 +178,46 @@ def _scope_figures(exp: Experiment) -> list[tuple[str, str, bytes]]:
     result = exp.result
     figures = []
     diagnosis = result.diagnosis if result.status != "ok" else ""
-    for scope in scope_layout(result):
+    for scope in [*scope_layout(result), *_theory_scopes(exp)]:
         caption = f"{exp.name}: {scope.title}" + (f". {scope.caption}" if scope.caption else "")
         data = scope_png(scope, title_prefix=exp.name, diagnosis=diagnosis, dpi=SCOPE_DPI)
         figures.append((scope.name, caption, data))
     return figures
+
+
+def _theory_scopes(exp: Experiment) -> list:
+    """The linear system an impedance run is designed to follow, over the run (A12); the
+    controller's M_d and Σ_d are read from its scenario, which the result does not log."""
+    controller = exp.result.meta.get("controller")
+    impedance = isinstance(controller, dict) and controller.get("type") == "ImpedanceControl"
+    if exp.scenario is None or not impedance:
+        return []
+    from armlab.scenarios import load_scenario
+
+    law = load_scenario(exp.scenario).controller
+    scope = impedance_scope(exp.result, law.mass, law.reference)
+    return [] if scope is None else [scope]
+
+
+def _comparisons_html(planned: list[Experiment]) -> dict[int, list[str]]:
+    """The figures of :data:`armlab.viz.comparisons.COMPARISONS` whose two runs the report
+    has, as HTML blocks by assignment."""
+    runs = {e.name: e.result for e in planned if e.result is not None and len(e.result.t) >= 2}
+    blocks: dict[int, list[str]] = {}
+    for comparison in COMPARISONS:
+        if not all(name in runs for name in comparison.runs):
+            continue
+        scope = comparison_scope(comparison, *(runs[name] for name in comparison.runs))
+        data = scope_png(scope, title_prefix=f"A{comparison.assignment}", dpi=SCOPE_DPI)
+        ident = f"cmp-{comparison.name}"
+        caption = f"{' and '.join(comparison.runs)}: {scope.title}"
+        blocks.setdefault(comparison.assignment, []).append(
+            f'<article class="experiment" id="{ident}" data-comparison="{ident}">'
+            f"<h3>Comparison: {html.escape(scope.title)}</h3>"
+            f'<p class="description">{html.escape(scope.caption)}</p><div class="figures">'
+            f'{html.figure(html.png_data_uri(data), caption, kind="scope", ident=f"fig-{ident}")}'
+            "</div></article>")
+    return blocks
 
 
 def evaluate(exp: Experiment) -> Experiment:
@@ -363,6 +399,8 @@ def build_report(robot: str | Robot = "prp", out_dir: str | Path = "report", *, 
     bodies: dict[int, list[str]] = {}
     for exp in planned:
         bodies.setdefault(exp.assignment, []).append(_experiment_html(exp))
+    for number, blocks in _comparisons_html(planned).items():
+        bodies.setdefault(number, []).extend(blocks)
 
     movie = ""
     if animation:
