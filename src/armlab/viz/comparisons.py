@@ -127,6 +127,7 @@ def comparison_caption(comparison: Comparison, first, second) -> str:
     controller = second.meta.get("controller") or {}
     kp = np.asarray(controller.get("kp", np.nan), dtype=float)
     gains = np.diag(kp) if kp.ndim == 2 else np.broadcast_to(kp, (second.n,))
+    crossing = []
     for k in np.flatnonzero(np.any(saturated, axis=0)):
         rows = np.flatnonzero(saturated[:, k])
         end = int(rows[-1]) + 1 if rows[-1] + 1 < second.t.size else int(rows[-1])
@@ -134,6 +135,7 @@ def comparison_caption(comparison: Comparison, first, second) -> str:
         e, v = float(e2[end, k]), float(second.signals["qd_err"][end, k])
         omega = float(np.sqrt(gains[k])) if np.isfinite(gains[k]) else float("nan")
         s = v + omega * e
+        crossing.append(s * e <= 0)
         verdict = ("the same sign as q̃: the designed loop cannot carry it past zero"
                    if s * e > 0 else "the opposite sign of q̃: the designed loop carries it past zero")
         text += (f" {pretty(first.labels['tau'][k])} is at the limit for {1e3 * share:.3g} ms, until "
@@ -141,8 +143,8 @@ def comparison_caption(comparison: Comparison, first, second) -> str:
                  f"{omega:.3g} rad/s) started at q̃ = {_number(e)}, dq̃/dt = {_number(v)}, and "
                  f"dq̃/dt + ω_n q̃ = {_number(s)} has {verdict}.")
     text += (" The seed expects the overshoot to grow under saturation; with the inverse-dynamics law "
-             "and an exact model it is the state that saturation leaves that decides, and here that "
-             "state gives none: saturation only delays the approach.")
+             "and an exact model it is the state that saturation leaves that decides")
+    text += "." if any(crossing) else ", and here that state gives none: saturation only delays the approach."
     return text
 
 
