@@ -355,3 +355,42 @@ def test_report_shows_each_sections_seed_note_and_the_metric_definitions(report)
         words = re.sub(r"[`*]", "", first.split("\n")[0].lstrip("* ")).split()[:6]
         assert html_module.escape(" ".join(words), quote=False) in re.sub(r"<[^>]+>", "", body), number
     assert "steady-state" in sections["metrics"] and "settling" in sections["metrics"]
+
+
+def test_derivations_are_kept_on_disk_keyed_by_robot_and_sources(tmp_path, monkeypatch):
+    """The A1–A5 HTML is derived once per robot and code version; a damaged file is derived
+    anew (and replaced whole), another robot gets its own file."""
+    import armlab
+    from armlab.viz import report as report_module
+    from armlab.viz.progress import Progress
+
+    monkeypatch.setenv("ARMLAB_CACHE_DIR", str(tmp_path))
+    calls = []
+
+    def derive(robot, progress):
+        calls.append(robot.name)
+        return {1: f"<p>{robot.name}</p>", 2: "<p>two</p>"}
+
+    monkeypatch.setattr(report_module, "_symbolic_sections", derive)
+    prp, planar = armlab.load_robot("prp"), armlab.load_robot("planar2r")
+    quiet = Progress(1, enabled=False)
+    first = report_module._cached_symbolic_sections(prp, quiet)
+    assert report_module._cached_symbolic_sections(prp, quiet) == first == {1: "<p>prp</p>", 2: "<p>two</p>"}
+    assert calls == ["prp"]
+    path = report_module._derivation_cache(prp)
+    assert path.is_relative_to(tmp_path) and path != report_module._derivation_cache(planar)
+    path.write_text('{"1": "<p>half', encoding="utf-8")
+    assert report_module._cached_symbolic_sections(prp, quiet) == first and calls == ["prp", "prp"]
+    assert report_module._cached_symbolic_sections(planar, quiet) == {1: "<p>planar2r</p>", 2: "<p>two</p>"}
+    assert not list(path.parent.glob("*.tmp"))
+
+
+def test_quick_report_runs_the_first_scenario_of_each_assignment():
+    import armlab
+    from armlab.viz.experiments import discover
+    from armlab.viz.report import first_of_each_assignment
+
+    every = discover(armlab.load_robot("prp"), quick=True)
+    chosen = first_of_each_assignment(every)
+    assert [e.assignment for e in chosen] == sorted({e.assignment for e in every})
+    assert chosen[0].name == "a6_pd_online" and all(e.t_final <= 2.0 for e in chosen if e.t_final)

@@ -104,6 +104,50 @@ def _drawings(robot: Robot) -> str:
     return '<div class="figures">' + "".join(parts) + "</div>"
 
 
+def _derivation_cache(robot: Robot) -> Path:
+    """The file that keeps the HTML of ``robot``'s A1–A5 derivations: named by a hash of the
+    robot's numbers and expressions, of every source the HTML depends on (the symbolic model,
+    its rendering, this page's pieces) and of SymPy's version, so that any change derives anew."""
+    import hashlib
+
+    import sympy
+
+    from armlab.specialise.closed_form import cache_dir, robot_key
+
+    package = Path(__file__).resolve().parents[1]
+    digest = hashlib.sha256(robot_key(robot).encode() + sympy.__version__.encode())
+    for path in [*sorted((package / "symbolic").glob("*.py")), package / "viz" / "html.py", Path(__file__)]:
+        digest.update(path.read_bytes())
+    return cache_dir() / "report" / f"derivations_{digest.hexdigest()[:24]}.json"
+
+
+def _cached_symbolic_sections(robot: Robot, progress: Progress) -> dict[int, str]:
+    """:func:`_symbolic_sections`, kept on disk (ARMLAB_CACHE_DIR) after the first report:
+    SymPy spends tens of seconds on them, the rest of a ``--quick`` report a few.  A cache
+    that cannot be read or written is derived around, never trusted half-written."""
+    import json
+
+    path = _derivation_cache(robot)
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+        if isinstance(data, dict) and all(isinstance(v, str) for v in data.values()):
+            progress.step("derivations A1–A5 (cached)")
+            for _ in data:
+                progress.advance()
+            return {int(k): v for k, v in data.items()}
+    except (OSError, ValueError):
+        pass
+    sections = _symbolic_sections(robot, progress)
+    partial = path.with_name(f"{path.name}.{os.getpid()}.tmp")
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        partial.write_text(json.dumps({str(k): v for k, v in sections.items()}), encoding="utf-8")
+        os.replace(partial, path)  # whole or not at all
+    except OSError:
+        partial.unlink(missing_ok=True)
+    return sections
+
+
 def _symbolic_sections(robot: Robot, progress: Progress) -> dict[int, str]:
     """HTML of the A1–A5 derivations by assignment number.
 
@@ -349,7 +393,8 @@ def build_report(robot: str | Robot = "prp", out_dir: str | Path = "report", *, 
     Parameters
     ----------
     robot : name of a bundled robot, a robot file, or a Robot
-    quick : shorten every run (the registry's quick settings) for a fast preview and tests
+    quick : a fast preview: the first scenario of each assignment (seed order), each run
+        shortened to the registry's quick length
     experiments : optional list of :class:`Experiment` to run instead of the registry's
         scenarios of the robot (used by tests)
     animation : add a GIF of one run
@@ -363,6 +408,8 @@ def build_report(robot: str | Robot = "prp", out_dir: str | Path = "report", *, 
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     planned = list(experiments) if experiments is not None else discover(robot, quick=quick)
+    if quick and experiments is None:
+        planned = first_of_each_assignment(planned)
     progress = Progress(len(planned) + 7, enabled=show_progress)
 
     def here():
@@ -372,7 +419,7 @@ def build_report(robot: str | Robot = "prp", out_dir: str | Path = "report", *, 
         drawn = _drawings(robot)
         progress.advance()
         try:
-            derived = _symbolic_sections(robot, progress)
+            derived = _cached_symbolic_sections(robot, progress)
         except Exception as error:  # a robot SymPy cannot derive still gets its experiments
             derived = {1: f'<p class="diverged">Symbolic derivation failed: {html.escape(error)}</p>'}
         return drawn, derived
@@ -469,6 +516,12 @@ def _seed_note_html(number: int) -> str:
         parts.append(f"<h4>{html.escape(heading)}</h4>{markdown_html(text)}")
     parts.append(f'<p class="note">From {html.escape(source_name(number))}.</p></aside>')
     return "".join(parts)
+
+
+def first_of_each_assignment(planned: list[Experiment]) -> list[Experiment]:
+    """The first experiment of every assignment, in order (what ``--quick`` runs)."""
+    seen: set[int] = set()
+    return [e for e in planned if not (e.assignment in seen or seen.add(e.assignment))]
 
 
 def _drawings_block(drawings: str) -> str:
