@@ -219,6 +219,11 @@ def test_report_renders_in_headless_chromium(report, tmp_path):
     assert rendered.experiments == source.experiments
     assert rendered.figures == source.figures and len(rendered.figures) >= 3
     assert rendered.math == source.math
+    # The formulas as the browser holds them: dotted rates, Greek letters, true minus signs.
+    formulas = "".join(re.findall(r"<math.*?</math>", dom.stdout, re.S))
+    assert "<mover" in formulas and "\u0307" not in formulas
+    assert "varphi" not in formulas and "vartheta" not in formulas and "\u03d1" in formulas
+    assert "<mo>-</mo>" not in formulas and "<mo>\u2212</mo>" in formulas
     from PIL import Image
 
     with Image.open(shot_path) as image:
