@@ -275,12 +275,42 @@ def _ink_runs(pixels: np.ndarray) -> int:
     return int(np.sum(np.diff(np.concatenate([[0], inked])) == 1))
 
 
-def test_time_derivatives_render_with_a_separate_dot_in_chromium(tmp_path):
-    """θ̇ and ḋ as the report prints them, drawn by Chromium with the report's style: a dot
-    above the letter with background between them (a dot fused into the letter, or none,
+FIREFOX = next((shutil.which(n) for n in ("firefox-esr", "firefox") if shutil.which(n)), None)
+
+
+def _screenshot(browser: str, tmp_path, page, width: int, height: int):
+    """A headless screenshot of ``page`` by ``browser`` ("chromium" or "firefox"), or a skip."""
+    shot_path = tmp_path / f"{browser}.png"
+    if browser == "chromium":
+        if CHROMIUM is None:
+            pytest.skip("chromium not installed: apt-get install -y chromium (or .ci/run) to run this check")
+        recorder = _ConnectionRecorder()
+        try:
+            shot = _run_chromium(tmp_path, page, [f"--window-size={width},{height}",
+                                                  f"--screenshot={shot_path}"], recorder.port)
+        finally:
+            recorder.close()
+    else:
+        if FIREFOX is None:
+            pytest.skip("firefox not installed: apt-get install -y firefox-esr to run this check")
+        profile = tmp_path / "firefox-profile"
+        profile.mkdir()
+        shot = subprocess.run([FIREFOX, "--headless", "--profile", str(profile),
+                               f"--window-size={width},{height}", "--screenshot", str(shot_path),
+                               page.as_uri()],
+                              capture_output=True, text=True, timeout=180)
+    assert shot.returncode == 0 and shot_path.exists(), shot.stderr[-2000:]
+    from PIL import Image
+
+    with Image.open(shot_path) as image:
+        return np.asarray(image.convert("L"), dtype=float)
+
+
+@pytest.mark.parametrize("browser", ["chromium", "firefox"])
+def test_time_derivatives_render_with_a_separate_dot(browser, tmp_path):
+    """θ̇, ḋ and θ̈ as the report prints them, drawn by the browser with the report's style:
+    dots above the letter with background between them (a dot fused into the letter, or none,
     gives one run of inked rows, as the plain θ of the control does)."""
-    if CHROMIUM is None:
-        pytest.skip("chromium not installed: apt-get install -y chromium (or .ci/run) to run this check")
     import sympy as sp
 
     from armlab.symbolic import to_mathml
@@ -293,18 +323,7 @@ def test_time_derivatives_render_with_a_separate_dot_in_chromium(tmp_path):
     page = tmp_path / "dots.html"
     page.write_text(document("dots", [], [], '<div style="position:fixed;inset:0;background:#fff;'
                                              f'z-index:9">{boxes}</div>'), encoding="utf-8")
-    shot_path = tmp_path / "dots.png"
-    recorder = _ConnectionRecorder()
-    try:
-        shot = _run_chromium(tmp_path, page, ["--window-size=300,680", f"--screenshot={shot_path}"],
-                             recorder.port)
-    finally:
-        recorder.close()
-    assert shot.returncode == 0, shot.stderr[-2000:]
-    from PIL import Image
-
-    with Image.open(shot_path) as image:
-        pixels = np.asarray(image.convert("L"), dtype=float)
+    pixels = _screenshot(browser, tmp_path, page, 300, 680)
     runs = [_ink_runs(pixels[10 + 160 * k: 170 + 160 * k]) for k in range(len(names))]
     assert runs == [2, 2, 2, 1], dict(zip(names, runs))
 
