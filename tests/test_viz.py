@@ -638,3 +638,32 @@ def test_position_scope_marks_the_spring_rest_position():
     free = replace(spring, meta={**spring.meta, "environment": None})
     scope = next(s for s in scope_layout(free) if s.name == "p")
     assert all(not panel.hlines for panel in scope.panels)
+
+
+def test_comparison_caption_measures_overshoot_and_the_state_saturation_leaves():
+    """Overshoot relative to the initial error; after the torque leaves its limit at t_s the
+    critically damped loop crosses zero iff q̃̇ + ω_n q̃ and q̃ differ in sign (by hand here:
+    q̃ = e0 e^{−t/T} gives q̃̇ + ω_n q̃ = q̃ (ω_n − 1/T))."""
+    from dataclasses import replace
+
+    from armlab.viz.comparisons import Comparison, comparison_scope, overshoot
+
+    assert overshoot(np.array([1.0, 0.5, -0.2, 0.1, 0.0])) == pytest.approx(20.0)
+    assert overshoot(np.array([-0.5, 0.1, 0.0])) == pytest.approx(20.0)
+    assert overshoot(np.array([0.0, 0.3])) == 0.0
+    result = _synthetic_result(limit=2.0)    # τ_1 = 5 e^{−t} clipped at 2 until t = ln 2.5
+    T = 0.4
+    signals = {**result.signals, "qd_err": -result.signals["q_err"] / T}
+    labels = {**result.labels, "qd_err": result.labels["q_err"]}
+    units = {**result.units, "qd_err": ("m/s", "rad/s")}
+    comparison = Comparison(7, "c", "title", ("a", "b"), ("free", "clipped"), window=0.3, torques=True)
+    for kp, crosses in ((100.0, False), (1.0, True)):     # ω_n = 10 or 1 against 1/T = 2.5
+        run = replace(result, signals=signals, labels=labels, units=units,
+                      meta={**result.meta, "controller": {"type": "JointInverseDynamics", "kp": [kp, kp],
+                                                           "kd": [1.0, 1.0]}})
+        scope = comparison_scope(comparison, run, run)
+        assert "d1 is at the limit for 917 ms" in scope.caption
+        assert ("carries it past zero" in scope.caption) is crosses
+        assert ("cannot carry it past zero" in scope.caption) is not crosses
+        assert all(curve[1][-1] <= 0.3 for panel in scope.panels for curve in panel.curves)
+        assert [p.ylabel for p in scope.panels][-2:] == ["τ d1 [N]", "τ θ2 [N·m]"]  # both clip
