@@ -20,6 +20,7 @@ import os
 import threading
 import time
 import traceback
+from dataclasses import replace
 from pathlib import Path
 
 import matplotlib
@@ -252,7 +253,8 @@ def _comparisons_html(planned: list[Experiment]) -> dict[int, list[str]]:
         if not all(name in runs for name in comparison.runs):
             continue
         scope = comparison_scope(comparison, *(runs[name] for name in comparison.runs))
-        data = scope_png(scope, title_prefix=f"A{comparison.assignment}", dpi=SCOPE_DPI)
+        # The caption is the article's text above the figure, not repeated under its axes.
+        data = scope_png(replace(scope, caption=""), title_prefix=f"A{comparison.assignment}", dpi=SCOPE_DPI)
         ident = f"cmp-{comparison.name}"
         caption = f"{' and '.join(comparison.runs)}: {scope.title}"
         blocks.setdefault(comparison.assignment, []).append(
