@@ -110,13 +110,13 @@ def _derivation_cache(robot: Robot) -> Path:
     robot's numbers and expressions, of every source the HTML depends on (the symbolic model,
     its rendering, this page's pieces) and of SymPy's version, so that any change derives anew."""
     import hashlib
-
-    import sympy
+    from importlib.metadata import version
 
     from armlab.specialise.closed_form import cache_dir, robot_key
 
     package = Path(__file__).resolve().parents[1]
-    digest = hashlib.sha256(robot_key(robot).encode() + sympy.__version__.encode())
+    # SymPy's version from its metadata: importing SymPy costs seconds a cached report saves.
+    digest = hashlib.sha256(robot_key(robot).encode() + version("sympy").encode())
     for path in [*sorted((package / "symbolic").glob("*.py")), package / "viz" / "html.py", Path(__file__)]:
         digest.update(path.read_bytes())
     return cache_dir() / "report" / f"derivations_{digest.hexdigest()[:24]}.json"
