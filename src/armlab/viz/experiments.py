@@ -26,6 +26,32 @@ from armlab.viz.metrics import Metric
 COMPANIONS = {"prp": ("link1",)}
 QUICK_T_FINAL = 2.0  # [s] length of every run in --quick mode
 HIDDEN_KEYS = {"title", "assignment", "description"}
+# The seed's order within each assignment (its option 1 before option 3, free motion before
+# contact): the report lists an assignment's experiments so, then any others by name.
+SEED_ORDER = (
+    "a6_pd_online", "a6_pd_none", "a6_pd_desired", "a6_pd_desired_global", "a6_pd_sine", "a6_pd_ramp",
+    "a6_pd_sine_disturbance", "a6_pd_ramp_disturbance",
+    "a7_id_via_points", "a7_id_regulation", "a7_id_mismatch", "a7_id_mismatch_regulation",
+    "a7_id_mismatch_whole_model", "a7_id_mismatch_whole_model_regulation",
+    "a7_id_high_gain", "a7_id_high_gain_saturated", "a7_id_higher_gain", "a7_id_higher_gain_saturated",
+    "a8_case1_sine", "a8_case1_wrong_plant1", "a8_case1_wrong_plant1_seed_form", "a8_case1_wrong_plant2",
+    "a8_case2_square", "a8_case2_square_faster", "a8_case2_wrong_plant1", "a8_case2_wrong_plant2",
+    "a09_pd_goal", "a09_pd_goal_rotation", "a09_pd_near_singular",
+    "a10_id_regulation", "a10_id_via_poses", "a10_id_random_goals", "a10_id_rotation_damped",
+    "a11_compliance", "a11_compliance_diagonal",
+    "a12_impedance_regulation", "a12_impedance_tracking",
+    "a13_admittance_regulation", "a13_admittance_tracking",
+    "a14_force_inner_position", "a14_force_inner_position_y_only",
+    "a14_force_inner_velocity", "a14_force_inner_velocity_z",
+    "a15_parallel_free", "a15_parallel_contact", "a15_parallel_contact_wall", "a15_parallel_outside_image",
+)
+"""The seed's order of its experiments, each improved variant right after the seed's own."""
+
+
+def seed_rank(name: str) -> tuple[int, str]:
+    """Sort key of a scenario within its assignment: its place in :data:`SEED_ORDER`, then
+    (scenarios not listed there) its name."""
+    return (SEED_ORDER.index(name), "") if name in SEED_ORDER else (len(SEED_ORDER), name)
 
 
 @dataclass
@@ -140,15 +166,16 @@ def _reloadable(scenario) -> str:
 
 def discover(robot: Robot, *, quick: bool = False, course_dir=None) -> list[Experiment]:
     """Every registered scenario of ``robot`` as an :class:`Experiment` ready to run, by
-    assignment; ``quick`` shortens each run to :data:`QUICK_T_FINAL`.  A robot without bundled
-    scenarios gets the course generated for it (:mod:`armlab.course`), written to
-    ``course_dir`` (a temporary folder if None) so that each experiment's file can be rerun."""
+    assignment and in the seed's order (:data:`SEED_ORDER`); ``quick`` shortens each run to
+    :data:`QUICK_T_FINAL`.  A robot without bundled scenarios gets the course generated for it
+    (:mod:`armlab.course`), written to ``course_dir`` (a temporary folder if None) so that each
+    experiment's file can be rerun."""
     scenarios = [s for s in list_scenarios() if _belongs(s.plant.name, robot.name)]
     if not scenarios:
         scenarios = _course(robot, course_dir)
     experiments = [experiment_from_scenario(scenario, QUICK_T_FINAL if quick else None)
                    for scenario in scenarios]
-    experiments.sort(key=lambda e: (e.assignment, e.name))
+    experiments.sort(key=lambda e: (e.assignment, *seed_rank(e.name)))
     return experiments
 
 
