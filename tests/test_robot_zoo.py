@@ -81,3 +81,28 @@ def test_zoo_arm_matches_pinocchio(name):
                      floor=max(float(np.abs(nle).max()), float(np.abs(g).max())))
         aba = pin.aba(model, data, qp, qd, tau_pin)
         assert_close(armlab.forward_dynamics(rigid, q, qd, tau_pin), aba, "aba")
+
+
+def test_zoo_name_without_its_package_says_what_to_install(monkeypatch, capsys):
+    from armlab.cli import main
+
+    monkeypatch.setattr(zoo, "_package_root", lambda package: None)
+    with pytest.raises(armlab.RobotFileError) as info:
+        armlab.load_robot("ur5")
+    assert str(info.value) == ("ur5: name: is a robot of the package 'example-robot-data', which is "
+                               "not installed (pip install example-robot-data)")
+    assert main(["robots", "--zoo"]) == 0
+    out = capsys.readouterr().out
+    assert f"{len(NAMES)} arms of example-robot-data, which is not installed" in out
+
+
+@needs_package
+def test_zoo_listing_and_provenance(capsys):
+    from armlab.cli import main
+
+    assert main(["robots", "--zoo"]) == 0
+    listing = capsys.readouterr().out
+    assert "ur5" in listing and "RRRRRR" in listing
+    assert main(["robots", "panda"]) == 0
+    out = capsys.readouterr().out
+    assert "note: from example-robot-data" in out and "panda_finger_joint1 = 0" in out
