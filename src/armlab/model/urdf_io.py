@@ -292,13 +292,14 @@ def _limits(path, joint) -> tuple[float, float] | None:
     return lower, upper
 
 
-def _lock_values(path, joints: dict, on_chain: set, lock: dict) -> dict:
+def _lock_values(path, joints: dict, on_chain: set, lock: dict, default: dict) -> dict:
     """q at which each moving joint off the chain is locked.
 
     A joint named in ``lock`` takes that value; a ``<mimic>`` joint follows its (locked)
-    master, q = multiplier · q_master + offset; any other joint is locked at 0 — Pinocchio's
-    neutral configuration, the one ``buildReducedModel`` is usually given — moved into the
-    joint's limits when 0 lies outside them.
+    master, q = multiplier · q_master + offset; a joint named in ``default`` takes that value;
+    any other joint is locked at 0 — Pinocchio's neutral configuration, the one
+    ``buildReducedModel`` is usually given — moved into the joint's limits when 0 lies outside
+    them.
     """
     off = {name: j for name, j in joints.items() if j.type in _MOVING and name not in on_chain}
     for name, value in lock.items():
@@ -327,6 +328,8 @@ def _lock_values(path, joints: dict, on_chain: set, lock: dict) -> dict:
             multiplier = _number(path, f"joint[{name}].mimic.multiplier", joint.mimic.multiplier, 1.0)
             offset = _number(path, f"joint[{name}].mimic.offset", joint.mimic.offset, 0.0)
             value = multiplier * value_of(master, (*seen, name)) + offset
+        elif name in default:
+            value = float(default[name])
         else:
             limits = _limits(path, joint)
             value = 0.0 if limits is None else min(max(0.0, limits[0]), limits[1])
@@ -377,10 +380,22 @@ def load_urdf(path: str | Path, *, tip: str | None = None, gravity=None,
     """
     path = Path(path)
     urdf = _parse(path)
-    links = {link.name: link for link in urdf.links}
+    return robot_from_tree(path, urdf.name, urdf.links, urdf.joints, tip=tip, gravity=gravity,
+                           name=name, lock=lock, file_kind="URDF")
+
+
+def robot_from_tree(path, tree_name, tree_links, tree_joints, *, tip=None, gravity=None, name=None,
+                    lock=None, file_kind="URDF", root_gravity=STANDARD_GRAVITY,
+                    default_lock=None, lock_rule="at 0 within limits unless given or mimicking") -> Robot:
+    """The serial chain root → ``tip`` of a tree of links and joints in URDF form (the records
+    of ``yourdfpy``, or any objects with their attributes), as described by :func:`load_urdf`.
+    ``path`` names the file in errors; without ``gravity`` (g_0 in Σ_0), g is ``root_gravity``
+    in the root link's frame.  ``default_lock`` (joint → value) replaces 0 as the value at which
+    joints off the chain are locked; ``lock_rule`` says how, in the note."""
+    links = {link.name: link for link in tree_links}
     joints = {}
     children: dict[str, list] = {}
-    for joint in urdf.joints:
+    for joint in tree_joints:
         field = f"joint[{joint.name}]"
         if joint.name in joints:
             _fail(path, field, "duplicate joint name")
@@ -411,7 +426,7 @@ def load_urdf(path: str | Path, *, tip: str | None = None, gravity=None,
     # Walk the whole tree once: each link gets its body (0 = ground, i = moving link i) and its
     # pose in that body's frame (Σ_0 for the ground, the URDF child link of joint i otherwise).
     on_chain = {j.name for j in chain}
-    locked = _lock_values(path, joints, on_chain, dict(lock or {}))
+    locked = _lock_values(path, joints, on_chain, dict(lock or {}), dict(default_lock or {}))
     moving_index = {j.name: i + 1 for i, j in enumerate(moving)}
     body_of = {root: 0}
     pose_in_body = {root: np.eye(4)}
@@ -499,7 +514,7 @@ def load_urdf(path: str | Path, *, tip: str | None = None, gravity=None,
     tip_link = chain[-1].child
     tool = pose_in_body[tip_link]
     if gravity is None:
-        g0 = base[:3, :3].T @ STANDARD_GRAVITY
+        g0 = base[:3, :3].T @ np.asarray(root_gravity, dtype=float)
     else:
         g0 = np.asarray(gravity, dtype=float)
         if g0.shape != (3,):
@@ -508,11 +523,11 @@ def load_urdf(path: str | Path, *, tip: str | None = None, gravity=None,
     if locked:
         values = ", ".join(f"{k} = {v:.6g}" for k, v in locked.items())
         notes.append(f"{len(locked)} joint{'s' if len(locked) > 1 else ''} off the chain {root} → "
-                     f"{tip_link} locked (at 0 within limits unless given or mimicking) and lumped "
+                     f"{tip_link} locked ({lock_rule}) and lumped "
                      f"into the links carrying them: {values}")
     if unset_limits:
         notes.append(f"limits lower = upper read as no limit: {', '.join(unset_limits)}")
-    return Robot(name=name or urdf.name or path.stem, joints=tuple(robot_joints),
+    return Robot(name=name or tree_name or Path(path).stem, joints=tuple(robot_joints),
                  links=tuple(robot_links), gravity=g0, base=base, tool=tool,
-                 description=f"{urdf.name}: chain {root} → {tip_link} of a URDF file",
+                 description=f"{tree_name}: chain {root} → {tip_link} of a {file_kind} file",
                  source=str(path), notes=tuple(notes))
