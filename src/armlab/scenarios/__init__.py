@@ -14,7 +14,8 @@ scenarios`` lists them)::
     dt = 0.001                             # [s]
     q0 = [0, 0, 0]
     # qd0, method ("rk4" | "adaptive"), control_period, torque_limit, log_every,
-    # dynamics ("auto" | "closed_form" | "numeric": the plant's forward dynamics)
+    # dynamics ("auto" | "closed_form" | "numeric": the plant's forward dynamics),
+    # joint_limits ("warn" | "stop" | "ignore": declared limits reported or enforced by stops)
 
     [controller]
     type = "joint_pd_gravity"              # a registered controller (armlab.registry)
@@ -74,7 +75,8 @@ for _module in DECLARING_MODULES:
     importlib.import_module(_module)
 
 SIMULATION_KEYS = {"t_final", "dt", "q0", "qd0", "method", "control_period", "torque_limit",
-                   "log_every", "limit_margin", "max_kinetic_energy", "rtol", "atol", "dynamics"}
+                   "log_every", "limit_margin", "max_kinetic_energy", "rtol", "atol", "dynamics",
+                   "joint_limits"}
 TOP_KEYS = {"title", "assignment", "description", "plant", "plant_link_mass", "simulation",
             "controller", "disturbance", "environment"}
 
@@ -165,7 +167,7 @@ def _settings(simulation, path) -> dict:
                                     f"unknown key (use {', '.join(sorted(SIMULATION_KEYS))})")
         if key == "dynamics" and choice_problem(value):
             raise ScenarioFileError(path, f"simulation.{key}", choice_problem(value))
-        if key in ("method", "dynamics"):
+        if key in ("method", "dynamics", "joint_limits"):
             settings[key] = str(value)
         elif key == "log_every":
             settings[key] = integer(value, path, f"simulation.{key}")
