@@ -156,3 +156,25 @@ def test_planar2r_export_keeps_gravity(tmp_path):
     np.testing.assert_allclose(armlab.gravity_torque(load_urdf(path), [0.0, 0.0]),
                                armlab.gravity_torque(robot, [0.0, 0.0]), rtol=1e-13)
     np.testing.assert_allclose(armlab.gravity_torque(robot, [0.0, 0.0]), [1030.05, 245.25], rtol=1e-12)
+
+
+def test_scenario_plant_tip(tmp_path):
+    """A scenario runs a branched URDF with ``plant_tip``; the controller's model follows it."""
+    from armlab.scenarios import load_scenario
+
+    _branched(tmp_path)
+    scenario = tmp_path / "arm.toml"
+    scenario.write_text('plant = "branched.urdf"\nplant_tip = "tool0"\n'
+                        '[simulation]\nt_final = 0.1\ndt = 0.001\nq0 = [0.1, 0.05]\n'
+                        '[controller]\ntype = "joint_pd_gravity"\nkp = [100, 100]\nkd = [20, 20]\n'
+                        '[controller.reference]\ntype = "constant"\nvalue = [0.1, 0.05]\n')
+    loaded = load_scenario(scenario)
+    assert loaded.plant.joint_names == loaded.controller.model.joint_names == ["shoulder", "slide"]
+    result = loaded.run()
+    # PD + g at rest at its goal stays there.
+    np.testing.assert_allclose(result.q[-1], [0.1, 0.05], atol=1e-9)
+    scenario.write_text(scenario.read_text().replace('plant_tip = "tool0"\n', ""))
+    from armlab.errors import ScenarioFileError
+
+    with pytest.raises(ScenarioFileError, match="plant: .*tip: the moving joints lie on several branches"):
+        load_scenario(scenario)
