@@ -178,3 +178,18 @@ def test_scenario_plant_tip(tmp_path):
 
     with pytest.raises(ScenarioFileError, match="plant: .*tip: the moving joints lie on several branches"):
         load_scenario(scenario)
+
+
+def test_pinocchio_reads_the_exported_gravity():
+    """Pinocchio's default gravity (0, 0, −9.81) in the root of the exported file is the
+    robot's gravity: g(0) of planar2r (g along −y of Σ_0) is [1030.05, 245.25] N·m."""
+    pin = pytest.importorskip("pinocchio")
+    for name in armlab.bundled_robot_names():
+        robot = armlab.load_robot(name)
+        model = pin.buildModelFromXML(to_urdf(robot))
+        data = model.createData()
+        from pinocchio_model import pinocchio_q, v_index
+
+        q = np.full(robot.n, 0.3)
+        g = pin.computeGeneralizedGravity(model, data, pinocchio_q(robot, model, q))[v_index(robot, model)]
+        np.testing.assert_allclose(g, armlab.gravity_torque(robot, q), rtol=1e-12, atol=1e-12)
