@@ -30,7 +30,9 @@ def test_generated_a6_a7_show_their_behaviour(name, tmp_path):
         assert np.all(q > robot.arrays.q_min) and np.all(q < robot.arrays.q_max)
         sigma = np.linalg.svd(armlab.geometric_jacobian(robot, q), compute_uv=False)
         assert sigma[-1] >= CONDITION * sigma[0]
-    pd_path, ct_path = generated_scenarios(robot, name, tmp_path)
+    paths = generated_scenarios(robot, name, tmp_path)
+    assert [p.name.split("_")[0] for p in paths] == ["a6", "a7", "a9", "a10"]
+    pd_path, ct_path, opd_path, oid_path = paths
     pd = load_scenario(pd_path)
     assert pd.plant.name == name and pd.simulation["q0"].tolist() == q_a.tolist()
     result = pd.run()
@@ -45,3 +47,12 @@ def test_generated_a6_a7_show_their_behaviour(name, tmp_path):
     # A7: an exact model tracks the quintic to round-off.
     ct = load_scenario(ct_path).run()
     assert ct.status == "ok" and np.abs(ct.signals["q_err"]).max() < 1e-9
+    # A9 (PD + g in operational space) and A10 (operational inverse dynamics) reach the goal
+    # pose x(q_b): the final pose error, measured by forward kinematics, vanishes.
+    goal = armlab.forward_kinematics(robot, q_b, "0")
+    for path, tol in ((opd_path, 1e-4), (oid_path, 1e-9)):
+        run = load_scenario(path).run()
+        assert run.status == "ok" and not run.meta["joint_limits"]["crossed"]
+        reached = armlab.forward_kinematics(robot, run.q[-1], "0")
+        assert np.abs(reached - goal).max() < tol, path.name
+        assert run.signals["jacobian_sv"].min() > 0.05

@@ -18,7 +18,15 @@ description:
   friction leaves a PD.  So ω_i = max(5 rad/s, √(F_s,i / (0.01 |Δ_i| b_i))): the dead zone is
   at most 1 % of the step (ω_i is capped at 0.2/dt, and the description then says so);
 * A7, computed torque (C2) tracking quintic via points q_a → q_b → q_a: K_P = ω² I,
-  K_D = 2ω I with ω = 10 rad/s, the model equal to the plant: the error stays at round-off.
+  K_D = 2ω I with ω = 10 rad/s, the model equal to the plant: the error stays at round-off;
+* for a 6-joint arm, the full pose x = [p; φ] in Σ_0 (Euler angles ZYZ, or RPY when ZYZ's
+  middle angle comes within 0.3 rad of its singularity at either pose) from x_a = x(q_a) to
+  the goal x_b = x(q_b):  A9, operational-space PD with gravity compensation,
+  K_P = Λ_A ω², K_D = 2 Λ_A ω with Λ_A the operational-space inertia (D8) of x at q_b and
+  ω = 5 rad/s, raised (as for A6) until Coulomb friction's dead zone |B⁻¹F_s|/ω² is below 1 %
+  of the step (the error vanishes, A9's Lyapunov argument); A10, operational-space inverse dynamics with
+  K_P = 25 s⁻², K_D = 10 s⁻¹ (x̃ follows x̃̈ + 10 x̃̇ + 25 x̃ = 0 to the goal).
+  The environments of A11–A15 (where the end effector meets a plane) are not generated.
 
 The files name the arm as given (a bundled or zoo name, or the absolute path of its file) and
 its tip, so ``armlab run FILE`` and the report run them like any scenario.
@@ -78,6 +86,17 @@ def course_poses(robot: Robot, seed: int = 0, tries: int = 200) -> tuple[np.ndar
 
 def _vector(values) -> str:
     return "[" + ", ".join(repr(float(v)) for v in values) + "]"
+
+
+def _matrix(rows) -> str:
+    return "[" + ", ".join(_vector(row) for row in rows) + "]"
+
+
+def _friction_note(robot: Robot) -> str:
+    if np.any(robot.arrays.coulomb > 0):
+        return ("  Coulomb friction leaves a dead zone where J_Aᵀ K_P x̃ balances F_s (ω raised so that "
+                "it stays below 1 % of the joint step).")
+    return ""
 
 
 def _string(text: str) -> str:
@@ -145,4 +164,63 @@ def generated_scenarios(robot: Robot, plant: str, out_dir: str | Path, *, tip: s
                   + f"values = {via}\n",
                   encoding="utf-8")
     paths.append(ct)
+    if robot.n == 6:
+        paths += _task_scenarios(robot, plant, tip, stem, q_a, q_b, out_dir)
     return paths
+
+
+def _euler_for(robot: Robot, poses) -> str:
+    """ZYZ unless its middle angle comes within 0.3 rad of 0 or π at one of the poses."""
+    from armlab.kinematics import forward_kinematics
+    from armlab.spatial import euler_from_matrix
+
+    for q in poses:
+        theta = euler_from_matrix(forward_kinematics(robot, q, "0")[:3, :3], "zyz")[1]
+        if min(abs(np.sin(theta)), 1.0) < np.sin(0.3):
+            return "rpy"
+    return "zyz"
+
+
+def _task_scenarios(robot, plant, tip, stem, q_a, q_b, out_dir) -> list[Path]:
+    from armlab.kinematics import forward_kinematics
+    from armlab.operational_space import operational_space_dynamics
+    from armlab.spatial import euler_from_matrix
+
+    euler = _euler_for(robot, (q_a, q_b))
+    T_a, T_b = forward_kinematics(robot, q_a, "0"), forward_kinematics(robot, q_b, "0")
+    phi_a = euler_from_matrix(T_a[:3, :3], euler)
+    phi_b = euler_from_matrix(T_b[:3, :3], euler)
+    phi_b = phi_a + np.angle(np.exp(1j * (phi_b - phi_a)))  # the triple nearest the start's
+    goal = np.concatenate([T_b[:3, 3], phi_b])
+    # Λ_A of x at the goal: K_P = Λ_A ω², K_D = 2 Λ_A ω make the linearised closed loop
+    # Λ_A x̃̈ + K_D x̃̇ + K_P x̃ = 0 critically damped in every direction there.
+    Lambda = operational_space_dynamics(robot, q_b, np.zeros(robot.n), euler=euler, frame="0").inertia
+    Lambda = 0.5 * (Lambda + Lambda.T)
+    # In joint terms the stiffness is J_Aᵀ K_P J_A = ω² B(q_b): Coulomb friction then leaves a
+    # dead zone |B⁻¹ F_s| / ω², kept below 1 % of the step as for A6 (ω ≤ 0.2/dt).
+    from armlab.dynamics import inertia_matrix
+
+    creep = np.abs(np.linalg.solve(inertia_matrix(robot, q_b), robot.arrays.coulomb)).max()
+    omega = min(max(PD_OMEGA, np.sqrt(creep / (0.01 * np.abs(q_b - q_a).max()))), 0.2 / 0.001)
+    common = (f"\n[simulation]\nt_final = 6.0\ndt = 0.001\nq0 = {_vector(q_a)}\n"
+              f'\n[controller]\ntype = "{{type}}"\nframe = "base"\neuler = "{euler}"\n'
+              f"angle_reference = {_vector(phi_a)}\ntask = [0, 1, 2, 3, 4, 5]\n{{gains}}"
+              f"\n[controller.reference]\ntimes = [0]\nposes = [{_vector(goal)}]\n")
+    goal_text = (f"goal x_b = x(q_b) in Σ_0 ({euler.upper()} angles), from x_a = x(q_a); poses inside the "
+                 f"limits with σ_min/σ_max(J) ≥ {CONDITION}")
+    pd = out_dir / f"a9_{stem}_operational_pd.toml"
+    pd.write_text(_header(f"A9 — operational-space PD with gravity compensation on {robot.name}", "A9",
+                          f"τ = g + J_Aᵀ(K_P x̃ − K_D J_A q̇) on the full pose; {goal_text}; K_P = "
+                          f"Λ_A ω², K_D = 2 Λ_A ω, ω = {omega:.4g} rad/s, Λ_A at q_b: "
+                          "the error vanishes." + _friction_note(robot), plant, tip)
+                  + common.format(type="operational_pd",
+                                  gains=f"kp = {_matrix(Lambda * omega ** 2)}\n"
+                                        f"kd = {_matrix(2 * Lambda * omega)}\n"),
+                  encoding="utf-8")
+    idyn = out_dir / f"a10_{stem}_operational_inverse_dynamics.toml"
+    idyn.write_text(_header(f"A10 — operational-space inverse dynamics on {robot.name}", "A10",
+                            f"τ = B J_A⁻¹(ẍ_d + K_D x̃̇ + K_P x̃ − J̇_A q̇) + n on the full pose; {goal_text}; "
+                            "x̃ follows x̃̈ + 10 x̃̇ + 25 x̃ = 0.", plant, tip)
+                    + common.format(type="operational_inverse_dynamics", gains="kp = 25.0\nkd = 10.0\n"),
+                    encoding="utf-8")
+    return [pd, idyn]
