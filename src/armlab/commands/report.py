@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 
 from armlab.commands import add_tip_argument
 
@@ -11,13 +10,11 @@ from armlab.commands import add_tip_argument
 def register(subparsers) -> None:
     parser = subparsers.add_parser(
         "report", help="write one self-contained HTML report of the seed project (A1–A15)",
-        description="Derive A1–A5, run every bundled scenario of the robot (A6–A15; for an arm "
-                    "without scenarios of its own, A6 and A7 experiments generated for it, their "
-                    "files in DIR/scenarios), and write DIR/report.html with formulas, scope plots, "
-                    "measured numbers and an animation.  The file has no external resources and "
-                    "opens offline.",
+        description="Derive A1–A5, run every bundled scenario of the robot (A6–A15), and write "
+                    "DIR/report.html with formulas, scope plots, measured numbers and an animation. "
+                    "The file has no external resources and opens offline.",
         formatter_class=argparse.ArgumentDefaultsHelpFormatter)
-    parser.add_argument("--robot", default="prp", help="bundled or zoo robot name, or robot file")
+    parser.add_argument("--robot", default="prp", help="bundled robot name or robot file")
     add_tip_argument(parser)
     parser.add_argument("--out", default="report", help="output directory")
     parser.add_argument("--quick", action="store_true",
@@ -29,19 +26,10 @@ def register(subparsers) -> None:
 
 def run(args) -> int:
     from armlab.robots import load_robot
-    from armlab.viz.experiments import discover, generated_experiments
     from armlab.viz.report import build_report
 
     robot = load_robot(args.robot, tip=args.tip)
-    experiments = None
-    if not discover(robot, quick=args.quick):
-        # An arm without scenarios of its own gets the course's joint-space experiments,
-        # generated for it (armlab.scenarios.generate) and written beside the report.
-        given = Path(args.robot)
-        plant = str(given.resolve()) if given.suffix else args.robot
-        experiments = generated_experiments(robot, plant, Path(args.out) / "scenarios", tip=args.tip,
-                                            quick=args.quick)
     path = build_report(robot, args.out, quick=args.quick, show_progress=not args.quiet,
-                        animation=not args.no_animation, experiments=experiments)
+                        animation=not args.no_animation)
     print(path)
     return 0

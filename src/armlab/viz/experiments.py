@@ -135,17 +135,3 @@ def discover(robot: Robot, *, quick: bool = False) -> list[Experiment]:
                    for scenario in list_scenarios() if _belongs(scenario.plant.name, robot.name)]
     experiments.sort(key=lambda e: (e.assignment, e.name))
     return experiments
-
-
-def generated_experiments(robot: Robot, plant: str, folder, *, tip: str | None = None,
-                          quick: bool = False) -> list[Experiment]:
-    """The A6/A7 experiments generated for an arm without scenarios of its own
-    (:mod:`armlab.scenarios.generate`), their files written into ``folder``."""
-    from armlab.scenarios.generate import generated_scenarios
-
-    experiments = []
-    for path in generated_scenarios(robot, plant, folder, tip=tip):
-        experiment = experiment_from_scenario(str(path), QUICK_T_FINAL if quick else None)
-        experiment.scenario = str(path)  # worker processes load it from its file
-        experiments.append(experiment)
-    return experiments
