@@ -193,3 +193,18 @@ def test_pinocchio_reads_the_exported_gravity():
         q = np.full(robot.n, 0.3)
         g = pin.computeGeneralizedGravity(model, data, pinocchio_q(robot, model, q))[v_index(robot, model)]
         np.testing.assert_allclose(g, armlab.gravity_torque(robot, q), rtol=1e-12, atol=1e-12)
+
+
+def test_course_of_a_branched_file_names_its_tip(tmp_path):
+    """The course generated for a URDF loaded with a tip writes plant_tip, so its files load."""
+    from armlab.course import write_course
+    from armlab.robots import robot_reference
+    from armlab.scenarios import load_scenario
+
+    robot = armlab.load_robot(_branched(tmp_path), tip="tool0")
+    reference, tip = robot_reference(robot)
+    assert reference == str((tmp_path / "branched.urdf").resolve()) and tip == "tool0"
+    paths, _ = write_course(robot, reference, tmp_path / "course", tip=tip)
+    assert paths and all('plant_tip = "tool0"' in p.read_text() for p in paths)
+    assert load_scenario(paths[0]).plant.joint_names == ["shoulder", "slide"]
+    assert robot_reference(armlab.load_robot("prp")) == ("prp", None)

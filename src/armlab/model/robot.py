@@ -214,7 +214,8 @@ class Robot:
     ``parameters`` holds the named values of the robot file (L0, m_Link4, …) and ``spec`` the
     file's raw content, expressions unevaluated, for the symbolic derivations.  ``notes`` are
     one-line remarks of the loader on what it changed from the file (side branches locked,
-    limits read as absent, the package a zoo robot came from).  ``arrays`` is its
+    limits read as absent, the package a zoo robot came from); ``tip`` the link (URDF) or body
+    (MJCF) of the file that carries Σ_e ("" for armlab's own files).  ``arrays`` is its
     :class:`RobotArrays`, derived at construction.
     """
 
@@ -229,6 +230,7 @@ class Robot:
     parameters: dict = field(default_factory=dict)
     spec: dict = field(default_factory=dict)
     notes: tuple[str, ...] = ()
+    tip: str = ""
     arrays: RobotArrays = field(init=False, repr=False, compare=False)
 
     def __post_init__(self):

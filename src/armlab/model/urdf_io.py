@@ -530,4 +530,4 @@ def robot_from_tree(path, tree_name, tree_links, tree_joints, *, tip=None, gravi
     return Robot(name=name or tree_name or Path(path).stem, joints=tuple(robot_joints),
                  links=tuple(robot_links), gravity=g0, base=base, tool=tool,
                  description=f"chain {root} → {tip_link} of the {file_kind} robot {tree_name!r}",
-                 source=str(path), notes=tuple(notes))
+                 source=str(path), notes=tuple(notes), tip=tip_link)

@@ -60,6 +60,18 @@ def load_robot(name_or_path: str | Path, *, tip: str | None = None,
                          ".xml (MJCF) file")
 
 
+def robot_reference(robot: Robot) -> tuple[str, str | None]:
+    """(plant, plant_tip): how a scenario file names ``robot`` so that it loads it back — a
+    bundled or zoo name, else the absolute path of its file, with the tip a URDF/MJCF tree needs."""
+    from armlab.robots import zoo
+
+    if robot.name in bundled_robot_names() and not robot.tip:
+        return robot.name, None
+    if robot.name in zoo.ZOO:
+        return robot.name, (robot.tip if robot.tip != zoo.ZOO[robot.name].tip else None)
+    return str(Path(robot.source).resolve()), robot.tip or None
+
+
 def _no_tree_options(text: str, tip, lock) -> None:
     """armlab's robot files describe a serial chain: there is no tip to choose."""
     for option, value in (("tip", tip), ("lock", lock)):

@@ -12,12 +12,14 @@ from __future__ import annotations
 import re
 import tomllib
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 
 from armlab.errors import ReportError
 from armlab.model.robot import Robot
 from armlab.scenarios import list_scenarios, load_scenario
+from armlab.theory import predictions
 from armlab.viz.drawing import Plane
 from armlab.viz.metrics import Metric
 
@@ -46,6 +48,7 @@ class Experiment:
     scenario: str | None = None
     t_final: float | None = None
     kind: str = ""
+    predicted: list = field(default_factory=list)   # rows of armlab.theory.predictions
 
     def run(self):
         """Run the scenario: ``runner()`` returns its SimulationResult."""
@@ -125,13 +128,39 @@ def experiment_from_scenario(scenario, t_final: float | None = None) -> Experime
     return Experiment(name=scenario.name, assignment=number, title=scenario.title,
                       description=scenario.description, parameters=parameters, robot=scenario.plant,
                       plane=environment_plane(scenario.environment), runner=runner,
-                      scenario=scenario.name, t_final=short, kind=type(scenario.controller).__name__)
+                      scenario=_reloadable(scenario), t_final=short, kind=type(scenario.controller).__name__,
+                      predicted=predictions(scenario))
 
 
-def discover(robot: Robot, *, quick: bool = False) -> list[Experiment]:
+def _reloadable(scenario) -> str:
+    """What a worker process loads the scenario by: its file (a generated course reuses the
+    bundled names), or its name when it has none."""
+    return str(scenario.source) if scenario.source else scenario.name
+
+
+def discover(robot: Robot, *, quick: bool = False, course_dir=None) -> list[Experiment]:
     """Every registered scenario of ``robot`` as an :class:`Experiment` ready to run, by
-    assignment; ``quick`` shortens each run to :data:`QUICK_T_FINAL`."""
+    assignment; ``quick`` shortens each run to :data:`QUICK_T_FINAL`.  A robot without bundled
+    scenarios gets the course generated for it (:mod:`armlab.course`), written to
+    ``course_dir`` (a temporary folder if None) so that each experiment's file can be rerun."""
+    scenarios = [s for s in list_scenarios() if _belongs(s.plant.name, robot.name)]
+    if not scenarios:
+        scenarios = _course(robot, course_dir)
     experiments = [experiment_from_scenario(scenario, QUICK_T_FINAL if quick else None)
-                   for scenario in list_scenarios() if _belongs(scenario.plant.name, robot.name)]
+                   for scenario in scenarios]
     experiments.sort(key=lambda e: (e.assignment, e.name))
     return experiments
+
+
+def _course(robot: Robot, folder) -> list:
+    """The scenarios :mod:`armlab.course` generates for ``robot``, loaded from their files."""
+    import tempfile
+
+    from armlab.course import write_course
+    from armlab.robots import robot_reference
+    from armlab.scenarios import load_scenario_file
+
+    reference, tip = robot_reference(robot)
+    folder = Path(folder) if folder is not None else Path(tempfile.mkdtemp(prefix="armlab-course-"))
+    paths, _ = write_course(robot, reference, folder, tip=tip)
+    return [load_scenario_file(path) for path in paths]

@@ -211,7 +211,7 @@ def evaluate(exp: Experiment) -> Experiment:
             traceback.print_exc()
         exp.seconds = time.perf_counter() - started
     if exp.result is not None and len(exp.result.t) >= 2:
-        exp.metrics = measure(exp.result)
+        exp.metrics = measure(exp.result, exp.predicted)
         exp.figures = _scope_figures(exp)
     exp.runner = None  # closures do not cross process boundaries
     return exp
@@ -335,7 +335,8 @@ def build_report(robot: str | Robot = "prp", out_dir: str | Path = "report", *, 
         robot = load_robot(robot)
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
-    planned = list(experiments) if experiments is not None else discover(robot, quick=quick)
+    planned = (list(experiments) if experiments is not None
+               else discover(robot, quick=quick, course_dir=out_dir / "course"))
     progress = Progress(len(planned) + 7, enabled=show_progress)
 
     def here():
