@@ -184,10 +184,10 @@ def _course(robot: Robot, folder) -> list:
     import tempfile
 
     from armlab.course import write_course
-    from armlab.robots import bundled_robot_names
+    from armlab.robots import robot_reference
     from armlab.scenarios import load_scenario_file
 
-    reference = robot.name if robot.name in bundled_robot_names() else str(Path(robot.source).resolve())
+    reference, tip = robot_reference(robot)
     folder = Path(folder) if folder is not None else Path(tempfile.mkdtemp(prefix="armlab-course-"))
-    paths, _ = write_course(robot, reference, folder)
+    paths, _ = write_course(robot, reference, folder, tip=tip)
     return [load_scenario_file(path) for path in paths]
