@@ -30,7 +30,7 @@ HIDDEN_KEYS = {"title", "assignment", "description"}
 # contact): the report lists an assignment's experiments so, then any others by name.
 SEED_ORDER = (
     "a6_pd_online", "a6_pd_none", "a6_pd_desired", "a6_pd_desired_global", "a6_pd_sine", "a6_pd_ramp",
-    "a6_pd_sine_disturbance", "a6_pd_ramp_disturbance",
+    "a6_pd_sine_disturbance", "a6_pd_sine_disturbance_stop", "a6_pd_ramp_disturbance",
     "a7_id_via_points", "a7_id_regulation", "a7_id_mismatch", "a7_id_mismatch_regulation",
     "a7_id_mismatch_whole_model", "a7_id_mismatch_whole_model_regulation",
     "a7_id_high_gain", "a7_id_high_gain_saturated", "a7_id_higher_gain", "a7_id_higher_gain_saturated",
@@ -41,7 +41,7 @@ SEED_ORDER = (
     "a11_compliance", "a11_compliance_diagonal",
     "a12_impedance_regulation", "a12_impedance_tracking",
     "a13_admittance_regulation", "a13_admittance_tracking",
-    "a14_force_inner_position", "a14_force_inner_position_y_only",
+    "a14_force_inner_position", "a14_force_inner_position_stop", "a14_force_inner_position_y_only",
     "a14_force_inner_velocity", "a14_force_inner_velocity_z",
     "a15_parallel_free", "a15_parallel_contact", "a15_parallel_contact_wall", "a15_parallel_outside_image",
 )
