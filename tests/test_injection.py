@@ -31,12 +31,33 @@ PAYLOADS = (
 
 
 def _hostile_prp(payload: str) -> dict:
+    """prp with ``payload`` in every text field; names are single lines (a name with a line
+    break is refused, see below), so they carry the payload with its line breaks as spaces."""
     data = tomllib.loads(bundled_robot_path("prp").read_text(encoding="utf-8"))
-    data["name"] = data["description"] = data["provenance"] = payload
+    name = payload.replace("\n", " ")
+    data["description"] = data["provenance"] = payload
+    data["name"] = name
     for i, joint in enumerate(data["joints"]):
-        joint["name"] = f"{payload}{i}"
-        joint["link"]["name"] = f"{payload}link{i}"
+        joint["name"] = f"{name}{i}"
+        joint["link"]["name"] = f"{name}link{i}"
     return data
+
+
+@pytest.mark.parametrize("field", ["name", "joints.name", "link.name"])
+@pytest.mark.parametrize("text", ["x\ny", "x\ry", "x\x1b[2Jy", "x\u2028y"])
+def test_names_with_line_breaks_or_control_characters_are_refused(field, text):
+    data = tomllib.loads(bundled_robot_path("prp").read_text(encoding="utf-8"))
+    if field == "name":
+        data["name"] = text
+    elif field == "joints.name":
+        data["joints"][1]["name"] = text
+    else:
+        data["joints"][1]["link"]["name"] = text
+    with pytest.raises(RobotFileError) as caught:
+        robot_from_dict(data, "hostile.toml")
+    message = str(caught.value)
+    assert message.startswith("hostile.toml: ") and "printable" in message
+    assert message.isprintable()
 
 
 @pytest.fixture(params=range(len(PAYLOADS)), ids=lambda i: f"payload{i}")
