@@ -78,7 +78,7 @@ value = [0, "pi/3", 0]
     (('"pi/3"', '"pi/"'), "controller.reference.value[1]"),
     (('plant = "prp"', 'plant = "nonesuch"'), "plant"),
     (("[simulation]", "[simulation]\nspeed = 2"), "simulation.speed"),
-    (("dt = 0.001", "dt = 0.001\nwhat"), "toml"),
+    (("dt = 0.001", "dt = 0.001\nwhat"), "syntax"),
 ])
 def test_bad_scenario_file_names_file_and_field(tmp_path, change, field):
     path = tmp_path / "bad.toml"

@@ -57,6 +57,8 @@ def read_input_bytes(path, error: type[FileFieldError], limit: int) -> bytes:
         fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_NOCTTY", 0))
     except OSError as problem:
         refuse(f"cannot be read ({problem.strerror or problem})")
+    except ValueError:  # a NUL character in the path
+        refuse("cannot be read (the path contains a NUL character)")
     try:
         info = os.fstat(fd)
         if not stat.S_ISREG(info.st_mode):
