@@ -50,15 +50,16 @@ def read_input_bytes(path, error: type[FileFieldError], limit: int) -> bytes:
     def refuse(reason: str):
         raise error(path, "file", reason)
 
+    flags = os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_NOCTTY", 0)
     try:
         mode = os.stat(path).st_mode
-        if not stat.S_ISREG(mode):
-            refuse(f"is {_kind(mode)}, not a regular file")
-        fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_NOCTTY", 0))
+        fd = os.open(path, flags) if stat.S_ISREG(mode) else None
     except OSError as problem:
         refuse(f"cannot be read ({problem.strerror or problem})")
     except ValueError:  # a NUL character in the path
         refuse("cannot be read (the path contains a NUL character)")
+    if fd is None:
+        refuse(f"is {_kind(mode)}, not a regular file")
     try:
         info = os.fstat(fd)
         if not stat.S_ISREG(info.st_mode):

@@ -49,6 +49,11 @@ def axis_alignment(axis) -> np.ndarray:
     return np.eye(3) + S + S @ S / (1.0 + c)
 
 
+MAX_MAGNITUDE = 1e12
+"""Largest magnitude of a robot file's values (joint limits excepted) in SI units: far beyond
+any manipulator, small enough that the dynamics (products of masses, squared lengths and
+squared rates) cannot overflow."""
+
 MAX_NAME_LENGTH = 200
 """Longest name (robot, joint, link, parameter) of a robot file [characters]."""
 
@@ -163,7 +168,7 @@ class _Reader:
     def fail(self, field: str, reason: str):
         raise RobotFileError(self.file, field, reason)
 
-    def number(self, value, field: str) -> float:
+    def number(self, value, field: str, bounded: bool = True) -> float:
         if isinstance(value, bool):
             self.fail(field, f"expected a number, got {value!r}")
         if not isinstance(value, (int, float, str)):
@@ -176,14 +181,17 @@ class _Reader:
             self.fail(field, str(error))
         if not math.isfinite(result):
             self.fail(field, f"is not finite ({_shorten(value)})")
+        if bounded and abs(result) > MAX_MAGNITUDE:
+            self.fail(field, f"{result:g} is beyond ±{MAX_MAGNITUDE:g}, the largest magnitude of a "
+                             "robot file's value")
         return result
 
-    def vector(self, value, field: str, length: int) -> np.ndarray:
+    def vector(self, value, field: str, length: int, bounded: bool = True) -> np.ndarray:
         if not isinstance(value, list):
             self.fail(field, f"expected a list of {length} numbers, got {type(value).__name__}")
         if len(value) != length:
             self.fail(field, f"expected {length} numbers, got {len(value)}")
-        return np.array([self.number(v, f"{field}[{k}]") for k, v in enumerate(value)])
+        return np.array([self.number(v, f"{field}[{k}]", bounded) for k, v in enumerate(value)])
 
     def matrix(self, value, field: str) -> np.ndarray:
         if not isinstance(value, list) or len(value) != 3:
@@ -334,7 +342,7 @@ def _joint(reader: _Reader, table: dict, index: int, convention: str) -> tuple[J
             reader.fail(f"{field}.friction.{key}", "must be non-negative")
     limits = (-np.inf, np.inf)
     if "limits" in table:
-        lo, hi = reader.vector(table["limits"], f"{field}.limits", 2)
+        lo, hi = reader.vector(table["limits"], f"{field}.limits", 2, bounded=False)
         if not lo < hi:
             reader.fail(f"{field}.limits", f"lower limit {lo:g} must be below upper limit {hi:g}")
         limits = (lo, hi)

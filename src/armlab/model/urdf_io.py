@@ -29,15 +29,18 @@ transforms from the root up to it form the base transform T_base0.
 
 from __future__ import annotations
 
+import io
 import math
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import numpy as np
 
+from armlab.files import URDF_LIMIT, read_input_bytes
 from armlab.model.inertia import inertia_problem, steiner
-from armlab.model.robot import Friction, Inertial, Joint, Link, Robot
+from armlab.model.robot import Friction, Inertial, Joint, Link, Robot, nonfinite_part
 from armlab.model.toml_io import RobotFileError, axis_alignment
+from armlab.model.urdf_check import check_urdf_document
 from armlab.spatial import inverse_transform, rpy_from_matrix, transform
 
 STANDARD_GRAVITY = np.array([0.0, 0.0, -9.81])
@@ -155,22 +158,23 @@ def _fail(path, field: str, reason: str):
 
 
 def _parse(path: Path):
-    """The ``yourdfpy`` robot of ``path``; unreadable or malformed files fail in one line."""
+    """The ``yourdfpy`` robot of ``path``; unreadable or malformed files fail in one line.
+
+    The file (a regular file of at most ``armlab.files.URDF_LIMIT`` bytes) is read once and
+    checked by :func:`~armlab.model.urdf_check.check_urdf_document` — no DTD, so no entity is
+    ever expanded or loaded; root ``<robot>``; unique names; finite numeric attributes of the
+    right length — before ``yourdfpy`` parses the same bytes.
+    """
     import yourdfpy
 
+    data = read_input_bytes(path, RobotFileError, URDF_LIMIT)
     try:
-        text = path.read_text(encoding="utf-8")
-    except OSError as error:
-        _fail(path, "file", f"cannot be read ({error.strerror})")
+        data.decode("utf-8")
     except UnicodeDecodeError:
         _fail(path, "file", "is not UTF-8 text")
+    check_urdf_document(data, path)
     try:
-        # yourdfpy recovers silently from some XML errors; a strict parse first reports them.
-        ET.fromstring(text)
-    except ET.ParseError as error:
-        _fail(path, "xml", f"not well-formed XML ({error})")
-    try:
-        urdf = yourdfpy.URDF.load(str(path), build_scene_graph=False, load_meshes=False,
+        urdf = yourdfpy.URDF.load(io.BytesIO(data), build_scene_graph=False, load_meshes=False,
                                   build_collision_scene_graph=False, load_collision_meshes=False)
     except Exception as error:  # yourdfpy raises plain ValueError/TypeError on bad attributes
         _fail(path, "urdf", " ".join(str(error).split()) or type(error).__name__)
@@ -187,6 +191,18 @@ def _number(path, field: str, value, default: float) -> float:
     if not math.isfinite(result):
         _fail(path, field, f"is not finite ({value!r})")
     return result
+
+
+def _check_finite(path, robot: Robot) -> None:
+    """Values finite one by one may still overflow together (a mass of 1e308 lumped with
+    another): the robot's derived arrays must be finite, else the part is named."""
+    part = nonfinite_part(robot)
+    if part is not None:
+        kind, i = part
+        field = {"joint": f"joint[{robot.joints[i].name}]" if i is not None else "joint",
+                 "link": f"link[{robot.links[i].name}].inertial" if i is not None else "link"}
+        _fail(path, field.get(kind, kind), "its values overflow: the robot's transforms or "
+                                           "inertials are not finite")
 
 
 def _chain(path, joints: dict, children: dict, root: str, tip: str | None) -> list:
@@ -230,6 +246,7 @@ def _axis_alignment(path, joint) -> np.ndarray:
     return transform(axis_alignment(axis))
 
 
+@np.errstate(all="ignore")  # overflow is caught by the checks, not reported on the way
 def load_urdf(path: str | Path, *, tip: str | None = None, gravity=None,
               name: str | None = None) -> Robot:
     """Load the serial chain root → ``tip`` of a URDF file as a :class:`Robot`.
@@ -382,7 +399,9 @@ def load_urdf(path: str | Path, *, tip: str | None = None, gravity=None,
         g0 = np.asarray(gravity, dtype=float)
         if g0.shape != (3,):
             raise ValueError(f"gravity must have shape (3,), got {g0.shape}")
-    return Robot(name=name or urdf.name or path.stem, joints=tuple(robot_joints),
-                 links=tuple(robot_links), gravity=g0, base=base, tool=tool,
-                 description=f"{urdf.name}: chain {root} → {tip_link} of a URDF file",
-                 source=str(path))
+    robot = Robot(name=name or urdf.name or path.stem, joints=tuple(robot_joints),
+                  links=tuple(robot_links), gravity=g0, base=base, tool=tool,
+                  description=f"{urdf.name}: chain {root} → {tip_link} of a URDF file",
+                  source=str(path))
+    _check_finite(path, robot)
+    return robot
