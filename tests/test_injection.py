@@ -120,3 +120,23 @@ def test_expressions_are_never_evaluated_as_python(hostile, field):
         robot_from_dict(data, "hostile.toml")
     assert "hostile.toml" in str(caught.value) and "\n" not in str(caught.value)
     assert not marker.exists()
+
+
+def test_report_page_escapes_the_robot_text(hostile, tmp_path, monkeypatch):
+    """The HTML report writes the robot's name and description into the page (title, header,
+    the list of what is missing): always escaped.  The drawings and derivations (tens of
+    seconds, escaped where they are made) are left out here."""
+    from armlab.viz import report
+
+    payload, marker = hostile
+    robot = robot_from_dict(_hostile_prp(payload), "hostile.toml")
+    monkeypatch.setattr(report, "_symbolic_sections", lambda robot, progress: {})
+    monkeypatch.setattr(report, "_drawings", lambda robot: "")
+    path = report.build_report(robot, tmp_path / "report", experiments=[], animation=False,
+                               show_progress=False, jobs=1)
+    page = path.read_text(encoding="utf-8")
+    assert "No runnable derivation or scenario" in page  # the section that names the robot
+    for text in (payload, robot.name, robot.joints[0].name):
+        assert text not in page
+    assert "<script" not in page
+    assert not marker.exists()

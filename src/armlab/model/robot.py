@@ -303,6 +303,11 @@ def nonfinite_part(robot: Robot) -> tuple[str, int | None] | None:
     def finite(*arrays) -> bool:
         return all(np.all(np.isfinite(a)) for a in arrays)
 
+    derived = [array for name, array in m._asdict().items() if name not in ("q_min", "q_max")]
+    if (finite(robot.gravity, robot.base, robot.tool, *derived)
+            and not np.isnan(np.concatenate([m.q_min, m.q_max])).any()
+            and all(finite(j.before, j.after) for j in robot.joints)):
+        return None  # the usual case, in one pass
     if not finite(robot.gravity, m.gravity):
         return "gravity", None
     if not finite(robot.base, m.base_R, m.base_p):

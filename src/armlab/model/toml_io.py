@@ -222,7 +222,8 @@ class _Reader:
     def only(self, table: dict, field: str, allowed: set[str]):
         unknown = sorted(set(table) - allowed)
         if unknown:
-            self.fail(f"{field}.{unknown[0]}" if field else unknown[0],
+            key = unknown[0] if unknown[0].isidentifier() else repr(unknown[0])
+            self.fail(f"{field}.{key}" if field else key,
                       f"unknown field (allowed: {', '.join(sorted(allowed))})")
 
     def pose(self, value, field: str) -> np.ndarray:

@@ -220,10 +220,11 @@ def load_scenario_file(path) -> Scenario:
     environment = None
     if "environment" in data:
         environment = build(Environment, data["environment"], path, "environment")
-    return Scenario(name=path.stem, title=str(data.get("title", path.stem)),
-                    assignment=str(data.get("assignment", "")), description=str(data.get("description", "")),
-                    plant=plant, controller=controller, disturbance=disturbance, simulation=settings,
-                    source=str(path), environment=environment)
+    texts = {key: read(str, data.get(key, default), path, key)
+             for key, default in (("title", path.stem), ("assignment", ""), ("description", ""))}
+    return Scenario(name=path.stem, **texts, plant=plant, controller=controller,
+                    disturbance=disturbance, simulation=settings, source=str(path),
+                    environment=environment)
 
 
 def _bundled_files() -> dict[str, Path]:

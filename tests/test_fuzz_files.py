@@ -1,0 +1,279 @@
+"""Fuzzing the file readers: every input gives one of exactly two outcomes.
+
+Robot TOML files, URDF files and scenario files are mutated as a hostile or careless author
+would (``strategies.mutated_tables``, ``mutated_urdf``, ``damaged_text``: values of the wrong
+type, NaN, ±inf, huge numbers, expressions that break naive evaluators, deleted, added and
+repeated keys, duplicated names, DTDs with entities, FIFOs and devices named as files …).  Each
+mutant must give
+
+* a valid robot or scenario whose numbers are all finite (checked here, independently of the
+  readers' own checks), or
+* the file's error class with one printable line that starts with the file's name,
+
+and, when the mutation put a value that no field can hold (NaN, ±inf, an integer beyond the
+float range, a duplicated name, a DTD …), always the second.  Through ``armlab.cli.main`` the
+same files never give a traceback.  Examples are derandomized: every run tries the same files.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import dataclasses
+import io
+import math
+import os
+import tomllib
+from pathlib import Path
+from unittest import mock
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+import armlab
+from armlab.cli import main
+from armlab.errors import RobotFileError, ScenarioFileError
+from armlab.model.robot import Robot
+from armlab.model.toml_io import robot_from_dict
+from armlab.model.urdf_io import load_urdf, to_urdf
+from armlab.robots import bundled_robot_names, bundled_robot_path
+from armlab.scenarios import Scenario, bundled_scenario_names, load_scenario_file, scenario_path
+from strategies import (
+    damaged_text,
+    is_poison,
+    mutated_tables,
+    mutated_urdf,
+    toml_dumps,
+)
+
+ROBOTS = bundled_robot_names()
+SCENARIOS = bundled_scenario_names()
+FUZZ = dict(derandomize=True, database=None, deadline=None,
+            suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
+
+
+def _parsed(path: Path) -> dict:
+    return tomllib.loads(path.read_text(encoding="utf-8"))
+
+
+ROBOT_DATA = {name: _parsed(bundled_robot_path(name)) for name in ROBOTS}
+SCENARIO_DATA = {name: _parsed(scenario_path(name)) for name in SCENARIOS}
+HAND_URDF = (Path(__file__).parent / "test_urdf.py").read_text(encoding="utf-8")
+HAND_URDF = HAND_URDF[HAND_URDF.index('<?xml version="1.0"?>\n<robot name="hand">'):]
+HAND_URDF = HAND_URDF[:HAND_URDF.index("</robot>") + len("</robot>")] + "\n"
+
+
+@pytest.fixture(scope="module")
+def folder(tmp_path_factory):
+    """A folder with the traps a mutated file may name: a FIFO, a link to /dev/zero, a folder."""
+    folder = tmp_path_factory.mktemp("fuzz")
+    os.mkfifo(folder / "fifo.toml")
+    (folder / "zero.toml").symlink_to("/dev/zero")
+    (folder / "directory.toml").mkdir()
+    return folder
+
+
+# ------------------------------------------------------------------ the two outcomes
+def _one_line(error: Exception, file) -> None:
+    message = str(error)
+    assert message.startswith(f"{file}: "), message
+    assert message.isprintable(), message  # one line: no line break, no control character
+
+
+def _finite(value) -> bool:
+    """Every number in ``value`` (float, array, tuple, dataclass fields) is finite."""
+    if isinstance(value, Robot):
+        return _finite_robot(value)
+    if isinstance(value, (bool, str, type(None))):
+        return True
+    if isinstance(value, (int, float, np.ndarray, np.number)):
+        array = np.asarray(value)
+        return not np.issubdtype(array.dtype, np.number) or bool(np.all(np.isfinite(array)))
+    if isinstance(value, (tuple, list)):
+        return all(_finite(v) for v in value)
+    if isinstance(value, dict):
+        return all(_finite(v) for v in value.values())
+    if dataclasses.is_dataclass(value):
+        return all(_finite(getattr(value, f.name)) for f in dataclasses.fields(value)
+                   if hasattr(value, f.name))
+    return True
+
+
+def _finite_robot(robot: Robot) -> bool:
+    m = robot.arrays
+    limits = np.concatenate([m.q_min, m.q_max])
+    arrays = [getattr(m, name) for name in m._fields if name not in ("q_min", "q_max")]
+    return (isinstance(robot.name, str) and robot.n >= 1 and not np.isnan(limits).any()
+            and np.all(m.q_min < m.q_max) and all(np.all(np.isfinite(a)) for a in arrays)
+            and all(np.all(np.isfinite(a)) for a in (robot.base, robot.tool, robot.gravity)))
+
+
+def _robot_outcome(load, file, poisoned: bool) -> None:
+    try:
+        robot = load()
+    except RobotFileError as error:
+        _one_line(error, file)
+        return
+    assert not poisoned, "a value no field can hold was accepted"
+    assert _finite_robot(robot)
+
+
+def _scenario_outcome(path: Path, poisoned: bool) -> None:
+    try:
+        scenario = load_scenario_file(path)
+    except ScenarioFileError as error:
+        _one_line(error, path)
+        return
+    assert not poisoned, "a value no field can hold was accepted"
+    assert _finite_robot(scenario.plant)
+    assert _finite(scenario.simulation) and _finite(scenario.controller)
+    assert _finite(scenario.disturbance) and _finite(scenario.environment)
+    settings_ = scenario.simulation
+    assert 0 < settings_["dt"] <= settings_["t_final"]
+
+
+# ------------------------------------------------------------------ robot TOML
+@settings(max_examples=400, **FUZZ)
+@given(data=st.data())
+def test_mutated_robot_tables(data):
+    name = data.draw(st.sampled_from(ROBOTS))
+    mutant = data.draw(mutated_tables(ROBOT_DATA[name]))
+    _robot_outcome(lambda: robot_from_dict(mutant, "fuzz.toml"), "fuzz.toml",
+                   is_poison(mutant, booleans=True))
+
+
+@settings(max_examples=60, **FUZZ)
+@given(data=st.data())
+def test_damaged_robot_files(folder, data):
+    name = data.draw(st.sampled_from(ROBOTS))
+    text = data.draw(damaged_text(bundled_robot_path(name).read_text(encoding="utf-8")))
+    path = folder / "damaged.toml"
+    path.write_text(text, encoding="utf-8", errors="surrogatepass")
+    _robot_outcome(lambda: armlab.load_robot(path), path, False)
+
+
+@pytest.mark.parametrize("trap", ["fifo.toml", "zero.toml", "directory.toml", "missing.toml"])
+def test_robot_files_that_are_not_regular_files(folder, trap):
+    with pytest.raises(RobotFileError) as caught:
+        armlab.load_robot(folder / trap)
+    _one_line(caught.value, folder / trap)
+
+
+def test_toml_writer_gives_back_the_bundled_files():
+    """The fuzz tests write mutants with ``strategies.toml_dumps``: it must be faithful."""
+    for data in (*ROBOT_DATA.values(), *SCENARIO_DATA.values()):
+        assert tomllib.loads(toml_dumps(data)) == data
+
+
+# ------------------------------------------------------------------ URDF
+URDF_SOURCES = {"hand": HAND_URDF, "prp": None, "puma560": None}
+
+
+def _urdf_source(name: str) -> str:
+    if URDF_SOURCES[name] is None:
+        URDF_SOURCES[name] = to_urdf(armlab.load_robot(name))
+    return URDF_SOURCES[name]
+
+
+@settings(max_examples=100, **FUZZ)
+@given(data=st.data())
+def test_mutated_urdf(folder, data):
+    name = data.draw(st.sampled_from(sorted(URDF_SOURCES)))
+    text, poisoned = data.draw(mutated_urdf(_urdf_source(name)))
+    path = folder / "fuzz.urdf"
+    path.write_text(text, encoding="utf-8")
+    _robot_outcome(lambda: load_urdf(path), path, poisoned)
+
+
+@settings(max_examples=40, **FUZZ)
+@given(data=st.data())
+def test_damaged_urdf(folder, data):
+    path = folder / "damaged.urdf"
+    path.write_text(data.draw(damaged_text(HAND_URDF)), encoding="utf-8")
+    _robot_outcome(lambda: load_urdf(path), path, False)
+
+
+# ------------------------------------------------------------------ scenario TOML
+@settings(max_examples=250, **FUZZ)
+@given(data=st.data())
+def test_mutated_scenarios(folder, data):
+    name = data.draw(st.sampled_from(SCENARIOS))
+    mutant = data.draw(mutated_tables(SCENARIO_DATA[name]))
+    path = folder / "fuzz.toml"
+    path.write_text(toml_dumps(mutant), encoding="utf-8")
+    _scenario_outcome(path, is_poison(mutant, booleans=False))
+
+
+@pytest.mark.parametrize("change, field", [
+    (("dt", [0.001]), "simulation.dt"), (("t_final", [1.0]), "simulation.t_final"),
+    (("dt", -0.001), "simulation.dt"), (("dt", 0), "simulation.dt"),
+    (("t_final", math.inf), "simulation.t_final"), (("max_kinetic_energy", math.nan),
+                                                    "simulation.max_kinetic_energy"),
+    (("control_period", 1e9), "simulation.control_period"), (("log_every", 0.5), "simulation.log_every"),
+    (("log_every", 10**30), "simulation.log_every"), (("q0", [0, 0]), "simulation.q0"),
+    (("torque_limit", [1, -1, 1]), "simulation.torque_limit"), (("method", ["rk4"]), "simulation.method"),
+])
+def test_simulation_settings_the_issue_found_accepted_or_crashing(folder, change, field):
+    data = SCENARIO_DATA["a6_pd_online"]
+    key, value = change
+    mutant = {**data, "simulation": {**data["simulation"], key: value}}
+    path = folder / "settings.toml"
+    path.write_text(toml_dumps(mutant), encoding="utf-8")
+    with pytest.raises(ScenarioFileError) as caught:
+        load_scenario_file(path)
+    _one_line(caught.value, path)
+    assert str(caught.value).startswith(f"{path}: {field}: ")
+
+
+# ------------------------------------------------------------------ the command line
+class _Loaded(Exception):
+    """Raised instead of simulating: the scenario file was read and checked."""
+
+
+def _cli(argv: list[str]) -> tuple[int | None, str]:
+    """(exit code, stderr) of ``armlab ARGV`` in this process; None when a scenario loaded."""
+    err, out = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stderr(err), contextlib.redirect_stdout(out), \
+            mock.patch.object(Scenario, "run", side_effect=_Loaded):
+        try:
+            code = main(argv)
+        except _Loaded:
+            code = None
+    return code, err.getvalue()
+
+
+def _clean(code, err: str, command: str) -> None:
+    assert "Traceback" not in err
+    if code not in (0, None):
+        assert code == 2 and err.count("\n") == 1 and err.startswith(f"armlab {command}: error: "), err
+
+
+@settings(max_examples=150, **FUZZ)
+@given(data=st.data())
+def test_cli_never_prints_a_traceback(folder, data):
+    kind = data.draw(st.sampled_from(["robot", "urdf", "scenario"]))
+    if kind == "robot":
+        path = folder / "cli.toml"
+        mutant = data.draw(mutated_tables(ROBOT_DATA[data.draw(st.sampled_from(ROBOTS))]))
+        path.write_text(toml_dumps(mutant), encoding="utf-8")
+        argv = ["robots", str(path)]
+    elif kind == "urdf":
+        path = folder / "cli.urdf"
+        path.write_text(data.draw(mutated_urdf(HAND_URDF))[0], encoding="utf-8")
+        argv = ["robots", str(path)]
+    else:
+        path = folder / "cli_scenario.toml"
+        mutant = data.draw(mutated_tables(SCENARIO_DATA[data.draw(st.sampled_from(SCENARIOS))]))
+        path.write_text(toml_dumps(mutant), encoding="utf-8")
+        argv = ["run", str(path), "--out", str(folder / "runs")]
+    code, err = _cli(argv)
+    _clean(code, err, argv[0])
+
+
+@pytest.mark.parametrize("trap", ["fifo.toml", "zero.toml", "directory.toml"])
+def test_cli_refuses_files_that_are_not_regular_before_reading(folder, trap):
+    for argv in (["robots", str(folder / trap)], ["run", str(folder / trap), "--out", str(folder / "runs")]):
+        code, err = _cli(argv)
+        _clean(code, err, argv[0])
+        assert code == 2 and "not a regular file" in err
