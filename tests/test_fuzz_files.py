@@ -226,6 +226,19 @@ def test_simulation_settings_the_issue_found_accepted_or_crashing(folder, change
     assert str(caught.value).startswith(f"{path}: {field}: ")
 
 
+@pytest.mark.parametrize("mass, reason", [(-1, "must be a mass from 0 to 1e+12 kg, got -1"),
+                                          (1e13, "must be a mass from 0 to 1e+12 kg, got 1e+13"),
+                                          ("nan", "cannot evaluate 'nan' (unknown name 'nan')"),
+                                          (True, "expected a number, got a boolean")])
+def test_link_mass_overrides_are_checked(folder, mass, reason):
+    data = SCENARIO_DATA["a6_pd_online"]
+    path = folder / "override.toml"
+    path.write_text(toml_dumps({**data, "plant_link_mass": {"link4": mass}}), encoding="utf-8")
+    with pytest.raises(ScenarioFileError) as caught:
+        load_scenario_file(path)
+    assert str(caught.value) == f"{path}: plant_link_mass.link4: {reason}"
+
+
 # ------------------------------------------------------------------ the command line
 class _Loaded(Exception):
     """Raised instead of simulating: the scenario file was read and checked."""

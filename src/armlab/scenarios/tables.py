@@ -41,8 +41,8 @@ from pathlib import Path
 import numpy as np
 
 from armlab.errors import ArmlabError, ScenarioFileError
-from armlab.model.robot import Robot
-from armlab.model.toml_io import evaluate_expression
+from armlab.model.robot import Robot, nonfinite_part
+from armlab.model.toml_io import MAX_MAGNITUDE, evaluate_expression
 from armlab.registry import ScenarioType, declared, scenario_types
 from armlab.spatial import euler_matrix
 
@@ -138,10 +138,16 @@ def robot(name, overrides, file, where) -> Robot:
         if link not in links:
             raise ScenarioFileError(file, f"{where}_link_mass.{link}",
                                     f"no such link in {loaded.name} ({', '.join(links)})")
-        try:
-            loaded = loaded.with_link_mass(link, number(mass, file, f"{where}_link_mass.{link}"))
-        except ValueError as error:
-            raise ScenarioFileError(file, f"{where}_link_mass.{link}", str(error)) from None
+        field = f"{where}_link_mass.{link}"
+        value = number(mass, file, field)
+        if not 0 <= value <= MAX_MAGNITUDE:
+            raise ScenarioFileError(file, field, f"must be a mass from 0 to {MAX_MAGNITUDE:g} kg, "
+                                                 f"got {value:g}")
+        with np.errstate(all="ignore"):  # overflow is reported below, as the robot's
+            loaded = loaded.with_link_mass(link, value)
+        part = nonfinite_part(loaded)
+        if part is not None:
+            raise ScenarioFileError(file, field, f"the {part[0]} values of {loaded.name} overflow")
     return loaded
 
 
