@@ -99,7 +99,10 @@ def expression_tree(text) -> ast.Expression:
             raise ValueError(f"unsupported expression element {shown[:40]!r} in {text!r} "
                              "(use numbers, parameter names, + − * / **, sqrt, sin, cos, tan, pi)")
         if isinstance(node, ast.Call) and (not isinstance(node.func, ast.Name)
-                                           or len(node.args) != 1 or node.keywords):
+                                           or node.func.id not in _FUNCTIONS):
+            raise ValueError(f"unknown function {ast.unparse(node.func)[:40]!r} "
+                             f"(allowed: {', '.join(sorted(_FUNCTIONS))})")
+        if isinstance(node, ast.Call) and (len(node.args) != 1 or node.keywords):
             raise ValueError(f"a function call takes one argument, as in sqrt(x), in {text!r}")
         children = [node.args[0]] if isinstance(node, ast.Call) else ast.iter_child_nodes(node)
         stack.extend((child, depth + 1) for child in children)
@@ -119,8 +122,8 @@ def evaluate_expression(text: str, names: dict[str, float]) -> float:
     """Value of an arithmetic expression over ``names`` (+ − * / **, sqrt/sin/cos/tan, pi).
 
     Only these operations are accepted (see :func:`expression_tree`): the robot file is data,
-    never code.  Raises ``ValueError`` (or ``ArithmeticError``: a division by zero, an
-    overflow) saying what is wrong; the value may be ±inf or NaN, which callers refuse.
+    never code.  Raises ``ValueError`` saying what is wrong (also for a division by zero or an
+    overflow); the value may still be ±inf (``1e308*10``), which callers refuse.
     """
 
     def walk(node):
@@ -141,16 +144,19 @@ def evaluate_expression(text: str, names: dict[str, float]) -> float:
             if node.id in _CONSTANTS:
                 return _CONSTANTS[node.id]
             raise ValueError(f"unknown name {node.id!r}")
-        # A call (expression_tree allows nothing else): one argument, a name.
-        if node.func.id not in _FUNCTIONS:
-            raise ValueError(f"unknown function {node.func.id!r} "
-                             f"(allowed: {', '.join(sorted(_FUNCTIONS))})")
+        # A call of a known function with one argument (expression_tree allows nothing else).
         argument = walk(node.args[0])
         if node.func.id == "sqrt" and argument < 0:
             raise ValueError(f"sqrt of a negative number ({argument:g})")
         return _FUNCTIONS[node.func.id](argument)
 
-    return walk(expression_tree(text))
+    tree = expression_tree(text)
+    try:
+        return walk(tree)
+    except ZeroDivisionError:
+        raise ValueError(f"division by zero in {_shorten(text)}") from None
+    except OverflowError:
+        raise ValueError(f"{_shorten(text)} overflows the range of a float") from None
 
 
 def _shorten(value, limit: int = 60) -> str:
@@ -177,7 +183,7 @@ class _Reader:
             result = evaluate_expression(value, self.names) if isinstance(value, str) else float(value)
         except OverflowError:
             self.fail(field, f"is beyond the range of a float ({_shorten(value)})")
-        except (ValueError, ArithmeticError) as error:
+        except ValueError as error:
             self.fail(field, str(error))
         if not math.isfinite(result):
             self.fail(field, f"is not finite ({_shorten(value)})")
