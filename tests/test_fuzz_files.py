@@ -153,6 +153,69 @@ def test_damaged_robot_files(folder, data):
     _robot_outcome(lambda: armlab.load_robot(path), path, False)
 
 
+def _set(data: dict, where: str, value) -> dict:
+    """A copy of ``data`` with the value at ``where`` ("joints.1.link.mass") replaced."""
+    import copy
+
+    data = copy.deepcopy(data)
+    *path, last = [int(k) if k.isdigit() else k for k in where.split(".")]
+    target = data
+    for key in path:
+        target = target[key]
+    target[last] = value
+    return data
+
+
+@pytest.mark.parametrize("where, value, field, reason", [
+    ("joints.2.link.mass", "(-1)**0.5", "joints[2].link.mass", "is not a real number"),
+    ("joints.2.link.mass", "True", "joints[2].link.mass", "unsupported expression element 'True'"),
+    ("joints.2.link.mass", True, "joints[2].link.mass", "expected a number, got True"),
+    ("joints.2.link.mass", 10**400, "joints[2].link.mass", "is beyond the range of a float"),
+    ("joints.2.link.mass", "+1" * 1000, "joints[2].link.mass", "longer than the 1000 allowed"),
+    ("joints.2.link.mass", "1" + "+1" * 400, "joints[2].link.mass", "nested more than 100 levels"),
+    ("joints.2.link.mass", "-" * 900 + "1", "joints[2].link.mass", "nested more than 100 levels"),
+    ("joints.2.link.mass", "10**10**10", "joints[2].link.mass", "exponent 1e+10 is beyond ±100"),
+    ("joints.2.link.mass", "1e308*10", "joints[2].link.mass", "is not finite"),
+    ("joints.2.link.shape.size", [1e308, 0.1, 0.1], "joints[2].link.shape.size[0]", "beyond ±1e+12"),
+    ("joints.2.link.com", [0, "1e200*1e200", 0], "joints[2].link.com[1]", "is not finite"),
+    ("name", 12, "name", "expected a non-empty string, got 12"),
+    ("name", ["prp"], "name", "expected a non-empty string"),
+    ("name", {"a": 1}, "name", "expected a non-empty string"),
+    ("description", 3.5, "description", "expected a string, got float"),
+    ("provenance", [], "provenance", "expected a string, got list"),
+    ("joints.1.name", "d1", "joints[1].name", "joint name 'd1' is used twice"),
+    ("joints.1.link.name", "link2", "joints[1].link.name", "link name 'link2' is used twice"),
+])
+def test_robot_values_the_issue_found_accepted_or_crashing(where, value, field, reason):
+    with pytest.raises(RobotFileError) as caught:
+        robot_from_dict(_set(ROBOT_DATA["prp"], where, value), "prp.toml")
+    _one_line(caught.value, "prp.toml")
+    assert str(caught.value).startswith(f"prp.toml: {field}: ") and reason in str(caught.value)
+
+
+def test_integers_beyond_pythons_digit_limit_are_a_syntax_error(folder):
+    path = folder / "digits.toml"
+    text = bundled_robot_path("prp").read_text(encoding="utf-8")
+    path.write_text(text.replace("m_Link2 = 0.5", "m_Link2 = " + "1" * 5000), encoding="utf-8")
+    with pytest.raises(RobotFileError) as caught:
+        armlab.load_robot(path)
+    assert str(caught.value).startswith(f"{path}: syntax: Exceeds the limit (4300 digits)")
+
+
+def test_derived_arrays_that_overflow_name_the_link(monkeypatch):
+    """Numbers finite one by one can overflow together; with the magnitude bound lifted, a
+    diagonal inertia of 1e308 rotated into the joint frame is caught by the final check."""
+    import armlab.model.toml_io as toml_io
+
+    monkeypatch.setattr(toml_io, "MAX_MAGNITUDE", math.inf)
+    data = _set(ROBOT_DATA["prp"], "joints.2.link.inertia",
+                [[1e308, 0, 0], [0, 1e308, 0], [0, 0, 1e308]])
+    data["joints"][2]["link"].pop("shape")
+    with pytest.raises(RobotFileError) as caught:
+        robot_from_dict(data, "prp.toml")
+    assert str(caught.value).startswith("prp.toml: joints[2].link: its values overflow")
+
+
 @pytest.mark.parametrize("trap", ["fifo.toml", "zero.toml", "directory.toml", "missing.toml"])
 def test_robot_files_that_are_not_regular_files(folder, trap):
     with pytest.raises(RobotFileError) as caught:
