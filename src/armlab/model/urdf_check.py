@@ -8,7 +8,8 @@ nothing inside it expands:
   (the "billion laughs" expansion bomb) or external (a local file, a URL) — can be declared,
   and parameter entities are never parsed; URDF needs none;
 * the root element is ``<robot>``; elements nest at most :data:`MAX_DEPTH` deep;
-* every ``<link>`` and ``<joint>`` of the robot has a name used once;
+* every ``<link>`` and ``<joint>`` of the robot has a name used once; names (the robot's too)
+  are single lines of printable text;
 * every numeric attribute URDF defines (``<origin xyz rpy>``, ``<axis xyz>``, ``<mass value>``,
   ``<inertia ixx … izz>``, ``<limit>``, ``<dynamics>``, shapes, colours …) holds the right number
   of finite numbers, at most ``MAX_MAGNITUDE`` (1e12) in magnitude except joint limits.
@@ -77,6 +78,8 @@ class _Scan:
         depth = len(self.stack)
         if depth == 0 and tag != "robot":
             self.fail("xml", f"the root element is <{tag[:40]}>, not <robot>")
+        if depth == 0 and not attributes.get("name", "x").isprintable():
+            self.fail("robot.name", "must be one line of printable text")
         if depth >= MAX_DEPTH:
             self.fail(".".join(self.stack[:3]) + ".…", f"elements nested more than {MAX_DEPTH} deep")
         segment = tag
@@ -84,6 +87,8 @@ class _Scan:
             name = attributes.get("name")
             if not name:
                 self.fail(tag, f"a <{tag}> without a name")
+            if not name.isprintable():
+                self.fail(f"{tag}[{name}]", "the name must be one line of printable text")
             if name in self.names[tag]:
                 self.fail(f"{tag}[{name}]", f"{tag} name {name!r} is used twice")
             self.names[tag].add(name)
