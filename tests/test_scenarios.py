@@ -4,7 +4,7 @@ controller is declared in its own file only; CLI."""
 import subprocess
 import sys
 from dataclasses import dataclass
-from typing import Literal
+from typing import Annotated, Literal
 
 import numpy as np
 import pytest
@@ -19,6 +19,7 @@ from armlab.scenarios import (
     load_scenario_file,
     scenario_path,
 )
+from armlab.scenarios.tables import Condition
 from armlab.simulation.results import SimulationResult
 
 NAMES = bundled_scenario_names()
@@ -173,6 +174,25 @@ def test_a_new_controller_with_a_string_option_is_declared_in_its_own_file(tmp_p
     with pytest.raises(ScenarioFileError) as caught:
         load_scenario_file(bad)
     assert str(caught.value) == f"{bad}: controller.tuning: 'clamp' is not one of seed, retuned"
+
+
+@scenario_type("test_bounded_pd")
+@dataclass(frozen=True, eq=False)
+class BoundedPD(JointPDGravity):
+    """A controller whose new field carries a condition in its annotation."""
+
+    softness: Annotated[float, Condition("in [0, 1]", lambda value: 0 <= value <= 1)] = 0.5
+
+
+def test_a_condition_in_a_fields_annotation_is_checked_where_the_file_is_read(tmp_path):
+    path = tmp_path / "bounded.toml"
+    path.write_text(GOOD.replace('type = "joint_pd_gravity"', 'type = "test_bounded_pd"\nsoftness = "1/4"'))
+    assert load_scenario_file(path).controller.softness == 0.25
+    bad = tmp_path / "too_soft.toml"
+    bad.write_text(path.read_text().replace('"1/4"', "2"))
+    with pytest.raises(ScenarioFileError) as caught:
+        load_scenario_file(bad)
+    assert str(caught.value) == f"{bad}: controller.softness: must be in [0, 1], got 2"
 
 
 @pytest.mark.parametrize("change, message", [

@@ -154,7 +154,7 @@ def robot(name, overrides, file, where) -> Robot:
 @functools.cache
 def _fields(cls: type) -> dict[str, tuple[object, bool]]:
     """{field name: (annotation, required)} of the fields a constructor of ``cls`` takes."""
-    hints = typing.get_type_hints(cls)
+    hints = typing.get_type_hints(cls, include_extras=True)  # keeps Annotated conditions
     return {f.name: (_without_none(hints[f.name]), f.default is dataclasses.MISSING
                      and f.default_factory is dataclasses.MISSING)
             for f in dataclasses.fields(cls) if f.init}
