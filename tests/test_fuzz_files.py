@@ -179,6 +179,7 @@ def _set(data: dict, where: str, value) -> dict:
     ("joints.2.link.shape.size", [1e308, 0.1, 0.1], "joints[2].link.shape.size[0]", "beyond ±1e+12"),
     ("joints.2.link.com", [0, "1e200*1e200", 0], "joints[2].link.com[1]", "is not finite"),
     ("name", 12, "name", "expected a non-empty string, got 12"),
+    ("name", "x" * 1001, "name", "is longer than 1000 characters"),
     ("name", ["prp"], "name", "expected a non-empty string"),
     ("name", {"a": 1}, "name", "expected a non-empty string"),
     ("description", 3.5, "description", "expected a string, got float"),

@@ -54,7 +54,7 @@ MAX_MAGNITUDE = 1e12
 any manipulator, small enough that the dynamics (products of masses, squared lengths and
 squared rates) cannot overflow."""
 
-MAX_NAME_LENGTH = 200
+MAX_NAME_LENGTH = 1000
 """Longest name (robot, joint, link, parameter) of a robot file [characters]."""
 
 MAX_EXPRESSION_LENGTH = 1000
