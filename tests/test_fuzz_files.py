@@ -134,7 +134,7 @@ def _scenario_outcome(path: Path, poisoned: bool) -> None:
 
 
 # ------------------------------------------------------------------ robot TOML
-@settings(max_examples=400, **FUZZ)
+@settings(max_examples=800, **FUZZ)
 @given(data=st.data())
 def test_mutated_robot_tables(data):
     name = data.draw(st.sampled_from(ROBOTS))
@@ -240,7 +240,7 @@ def _urdf_source(name: str) -> str:
     return URDF_SOURCES[name]
 
 
-@settings(max_examples=100, **FUZZ)
+@settings(max_examples=150, **FUZZ)
 @given(data=st.data())
 def test_mutated_urdf(folder, data):
     name = data.draw(st.sampled_from(sorted(URDF_SOURCES)))
@@ -259,7 +259,7 @@ def test_damaged_urdf(folder, data):
 
 
 # ------------------------------------------------------------------ scenario TOML
-@settings(max_examples=250, **FUZZ)
+@settings(max_examples=400, **FUZZ)
 @given(data=st.data())
 def test_mutated_scenarios(folder, data):
     name = data.draw(st.sampled_from(SCENARIOS))
@@ -326,7 +326,7 @@ def _clean(code, err: str, command: str) -> None:
         assert code == 2 and err.count("\n") == 1 and err.startswith(f"armlab {command}: error: "), err
 
 
-@settings(max_examples=150, **FUZZ)
+@settings(max_examples=250, **FUZZ)
 @given(data=st.data())
 def test_cli_never_prints_a_traceback(folder, data):
     kind = data.draw(st.sampled_from(["robot", "urdf", "scenario"]))
