@@ -40,12 +40,24 @@ class InputError(ArmlabError, ValueError):
     """A value armlab cannot use; the message names the field and says what is wrong."""
 
 
+# Line breaks and other control characters that a file name, a TOML key or a quoted value may
+# carry into a message; escaped so that the message stays one line.
+_CONTROL = {code: f"\\x{code:02x}" for code in (*range(32), 127, 0x85)}
+_CONTROL |= {ord("\n"): "\\n", ord("\r"): "\\r", ord("\t"): "\\t",
+             0x2028: "\\u2028", 0x2029: "\\u2029"}
+
+
+def one_line(text) -> str:
+    """``str(text)`` with line breaks and control characters escaped (``\\n``, ``\\x1b``)."""
+    return str(text).translate(_CONTROL)
+
+
 class FileFieldError(InputError):
-    """A file field that cannot be used; ``str()`` is ``file: field: reason``."""
+    """A file field that cannot be used; ``str()`` is ``file: field: reason``, one line."""
 
     def __init__(self, file, field: str, reason: str):
-        self.file, self.field, self.reason = str(file), field, reason
-        super().__init__(f"{self.file}: {field}: {reason}")
+        self.file, self.field, self.reason = one_line(file), one_line(field), one_line(reason)
+        super().__init__(f"{self.file}: {self.field}: {self.reason}")
 
     def __reduce__(self):
         # Rebuilt from its three parts (not from the message) when it crosses to another process.

@@ -60,6 +60,9 @@ def parse_vector(text: str, n: int, what: str) -> np.ndarray:
     if len(parts) != n:
         raise CommandError(f"{what}: expected {n} values, got {len(parts)} ({text!r})")
     try:
-        return np.array([evaluate_expression(p, {}) for p in parts])
-    except (ValueError, ZeroDivisionError) as error:
+        values = np.array([evaluate_expression(p, {}) for p in parts])
+    except (ValueError, ArithmeticError) as error:
         raise CommandError(f"{what}: {error}") from error
+    if not np.all(np.isfinite(values)):
+        raise CommandError(f"{what}: expected finite values, got {text!r}")
+    return values

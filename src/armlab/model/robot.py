@@ -295,6 +295,43 @@ class Robot:
         return self.replace(links=tuple(links))
 
 
+def nonfinite_part(robot: Robot) -> tuple[str, int | None] | None:
+    """The first part of ``robot`` whose numbers are not finite, or None.
+
+    The part is ``("gravity" | "base" | "tool", None)``, ``("joint", i)`` (placement, offset,
+    motor, friction; NaN limits — infinite limits mean none) or ``("link", i)`` (mass, centre
+    of mass, inertia in ``robot.arrays``, motor masses lumped).  Values that are finite one by
+    one can still overflow in the derived arrays (an inertia of 1e308 rotated into J_i): the
+    file readers call this last and name the part in their error.
+    """
+    m = robot.arrays
+
+    def finite(*arrays) -> bool:
+        return all(np.all(np.isfinite(a)) for a in arrays)
+
+    derived = [array for name, array in m._asdict().items() if name not in ("q_min", "q_max")]
+    if (finite(robot.gravity, robot.base, robot.tool, *derived)
+            and not np.isnan(np.concatenate([m.q_min, m.q_max])).any()
+            and all(finite(j.before, j.after) for j in robot.joints)):
+        return None  # the usual case, in one pass
+    if not finite(robot.gravity, m.gravity):
+        return "gravity", None
+    if not finite(robot.base, m.base_R, m.base_p):
+        return "base", None
+    for i, joint in enumerate(robot.joints):
+        if not (finite(joint.before, joint.after, m.tree_R[i], m.tree_p[i], m.offset[i],
+                       m.gear_ratio[i], m.rotor_inertia[i], m.viscous[i], m.coulomb[i])
+                and not np.isnan(m.q_min[i]) and not np.isnan(m.q_max[i])):
+            return "joint", i
+    for i, link in enumerate(robot.links):
+        inertial = link.inertial
+        if not finite(inertial.mass, inertial.com, inertial.inertia, m.mass[i], m.com[i], m.inertia[i]):
+            return "link", i
+    if not finite(robot.tool, m.tool_R, m.tool_p):
+        return "tool", None
+    return None
+
+
 def _robot_arrays(robot: Robot) -> RobotArrays:
     """The :class:`RobotArrays` of ``robot`` (its attribute ``arrays``, made at construction)."""
     n = robot.n

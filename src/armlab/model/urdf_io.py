@@ -35,15 +35,18 @@ transforms from the root up to it form the base transform T_base0.
 
 from __future__ import annotations
 
+import io
 import math
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import numpy as np
 
+from armlab.files import URDF_LIMIT, read_input_bytes
 from armlab.model.inertia import inertia_problem, steiner
-from armlab.model.robot import Friction, Inertial, Joint, Link, Robot
+from armlab.model.robot import Friction, Inertial, Joint, Link, Robot, nonfinite_part
 from armlab.model.toml_io import RobotFileError, axis_alignment
+from armlab.model.urdf_check import check_urdf_document
 from armlab.spatial import hom_rot_z, inverse_transform, rpy_from_matrix, trans_z, transform
 
 STANDARD_GRAVITY = np.array([0.0, 0.0, -9.81])
@@ -183,22 +186,23 @@ def _fail(path, field: str, reason: str):
 
 
 def _parse(path: Path):
-    """The ``yourdfpy`` robot of ``path``; unreadable or malformed files fail in one line."""
+    """The ``yourdfpy`` robot of ``path``; unreadable or malformed files fail in one line.
+
+    The file (a regular file of at most ``armlab.files.URDF_LIMIT`` bytes) is read once and
+    checked by :func:`~armlab.model.urdf_check.check_urdf_document` — no DTD, so no entity is
+    ever expanded or loaded; root ``<robot>``; unique names; finite numeric attributes of the
+    right length — before ``yourdfpy`` parses the same bytes.
+    """
     import yourdfpy
 
+    data = read_input_bytes(path, RobotFileError, URDF_LIMIT)
     try:
-        text = path.read_text(encoding="utf-8")
-    except OSError as error:
-        _fail(path, "file", f"cannot be read ({error.strerror})")
+        data.decode("utf-8")
     except UnicodeDecodeError:
         _fail(path, "file", "is not UTF-8 text")
+    check_urdf_document(data, path)
     try:
-        # yourdfpy recovers silently from some XML errors; a strict parse first reports them.
-        ET.fromstring(text)
-    except ET.ParseError as error:
-        _fail(path, "xml", f"not well-formed XML ({error})")
-    try:
-        urdf = yourdfpy.URDF.load(str(path), build_scene_graph=False, load_meshes=False,
+        urdf = yourdfpy.URDF.load(io.BytesIO(data), build_scene_graph=False, load_meshes=False,
                                   build_collision_scene_graph=False, load_collision_meshes=False)
     except Exception as error:  # yourdfpy raises plain ValueError/TypeError on bad attributes
         _fail(path, "urdf", " ".join(str(error).split()) or type(error).__name__)
@@ -220,6 +224,18 @@ def _number(path, field: str, value, default: float) -> float:
 def _listing(names, limit: int = 8) -> str:
     names = list(names)
     return ", ".join(names[:limit]) + (f", … ({len(names)} in all)" if len(names) > limit else "")
+
+
+def _check_finite(path, robot: Robot) -> None:
+    """Values finite one by one may still overflow together (a mass of 1e308 lumped with
+    another): the robot's derived arrays must be finite, else the part is named."""
+    part = nonfinite_part(robot)
+    if part is not None:
+        kind, i = part
+        field = {"joint": f"joint[{robot.joints[i].name}]" if i is not None else "joint",
+                 "link": f"link[{robot.links[i].name}].inertial" if i is not None else "link"}
+        _fail(path, field.get(kind, kind), "its values overflow: the robot's transforms or "
+                                           "inertials are not finite")
 
 
 def _chain(path, joints: dict, children: dict, root: str, tip: str | None) -> list:
@@ -341,6 +357,7 @@ def _lock_values(path, joints: dict, on_chain: set, lock: dict, default: dict) -
     return values
 
 
+@np.errstate(all="ignore")  # overflow is caught by the checks, not reported on the way
 def load_urdf(path: str | Path, *, tip: str | None = None, gravity=None,
               name: str | None = None, lock: dict | None = None) -> Robot:
     """Load the serial chain root → ``tip`` of a URDF file as a :class:`Robot`.
@@ -527,7 +544,9 @@ def robot_from_tree(path, tree_name, tree_links, tree_joints, *, tip=None, gravi
                      f"into the links carrying them: {values}")
     if unset_limits:
         notes.append(f"limits lower = upper read as no limit: {', '.join(unset_limits)}")
-    return Robot(name=name or tree_name or Path(path).stem, joints=tuple(robot_joints),
-                 links=tuple(robot_links), gravity=g0, base=base, tool=tool,
-                 description=f"chain {root} → {tip_link} of the {file_kind} robot {tree_name!r}",
-                 source=str(path), notes=tuple(notes), tip=tip_link)
+    robot = Robot(name=name or tree_name or Path(path).stem, joints=tuple(robot_joints),
+                  links=tuple(robot_links), gravity=g0, base=base, tool=tool,
+                  description=f"chain {root} → {tip_link} of the {file_kind} robot {tree_name!r}",
+                  source=str(path), notes=tuple(notes), tip=tip_link)
+    _check_finite(path, robot)
+    return robot

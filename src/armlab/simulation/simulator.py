@@ -124,6 +124,8 @@ class _Setup:
             raise SimulationError(f"limit_margin: must be a finite fraction ≥ 0, got {limit_margin!r}")
         self.q_lo, self.q_hi = _divergence_limits(plant, float(limit_margin))
         self.ke_max = float(max_kinetic_energy)
+        if not self.ke_max > 0:  # NaN would switch the divergence check off without a word
+            raise SimulationError(f"max_kinetic_energy: must be positive [J], got {max_kinetic_energy!r}")
         # Joint stops (S4) act on the plant like a state-dependent disturbance term.
         self.joint_limits = check_mode(joint_limits)
         self.stop = joint_stop(plant, q0, self.dt) if self.joint_limits == "stop" else None

@@ -506,8 +506,8 @@ def build_report(robot: str | Robot = "prp", out_dir: str | Path = "report", *, 
         nav.insert(0, ("animation", "animation"))
     if missing:
         sections.append('<section id="missing"><h2>Not in this build</h2><p class="missing">'
-                        f"No runnable derivation or scenario for {robot.name} yet: {', '.join(missing)}."
-                        "</p></section>")
+                        f"No runnable derivation or scenario for {html.escape(robot.name)} yet: "
+                        f"{', '.join(missing)}.</p></section>")
     elapsed = time.perf_counter() - started
     subtitle = [f"robot {robot.name}: {robot.description}" if robot.description else f"robot {robot.name}",
                 f"{len(planned)} scenario runs{' (quick settings)' if quick else ''}; "
