@@ -140,10 +140,11 @@ def to_urdf(robot: Robot) -> str:
 
 
 def save_urdf(robot: Robot, path: str | Path) -> Path:
-    """Write :func:`to_urdf` of ``robot`` to ``path``; returns the path."""
-    path = Path(path)
-    path.write_text(to_urdf(robot), encoding="utf-8")
-    return path
+    """Write :func:`to_urdf` of ``robot`` to ``path`` (atomically: complete or not at all,
+    ``armlab.files``); returns the path."""
+    from armlab.files import write_text
+
+    return write_text(Path(path), to_urdf(robot))
 
 
 # ----------------------------------------------------------------------------------- import

@@ -60,6 +60,7 @@ from pathlib import Path
 import numpy as np
 
 from armlab.errors import ClosedFormUnavailable
+from armlab.files import write_text
 from armlab.kernels.dynamics import make_workspace, rnea_into
 from armlab.kernels.plant import (
     forward_dynamics_packed,
@@ -199,10 +200,7 @@ def _generate(robot: Robot, key: str, path: Path) -> None:
 
         source = traced_source(robot, key=key)
     # Written atomically: parallel processes may generate the same module.
-    handle, temporary = tempfile.mkstemp(dir=path.parent, suffix=".tmp")
-    with os.fdopen(handle, "w") as stream:
-        stream.write(source)
-    os.replace(temporary, path)
+    write_text(path, source)
 
 
 def _import(path: Path, name: str):
