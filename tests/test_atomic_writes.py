@@ -13,11 +13,11 @@ import time
 from pathlib import Path
 
 import pytest
-from synthetic_results import assert_same, synthetic_result
 
 from armlab.errors import ResultFileError
 from armlab.files import PREFIX, replacing, sweep, write_text
 from armlab.simulation.results import FORMATS, SimulationResult
+from synthetic_results import assert_same, synthetic_result
 
 SRC = Path(__file__).resolve().parents[1] / "src"
 TESTS = Path(__file__).resolve().parent

@@ -258,7 +258,11 @@ def _read_parquet(path):
     expected = _column_names(layout)
     if arrow.column_names != expected:
         raise ResultFileError(f"{path}: columns {_differ(arrow.column_names, expected)}")
-    columns = [np.asarray(arrow.column(i).to_numpy(), dtype=float) for i in range(arrow.num_columns)]
+    kinds = [str(field.type) for field in arrow.schema]
+    if any(kind != "double" for kind in kinds):
+        bad = next(i for i, kind in enumerate(kinds) if kind != "double")
+        raise ResultFileError(f"{path}: column {expected[bad]!r} holds {kinds[bad]}, not float64")
+    columns = [arrow.column(i).to_numpy() for i in range(arrow.num_columns)]
     table = np.column_stack(columns) if arrow.num_rows else np.zeros((0, len(expected)))
     return header, *_split(table, layout, path)
 
