@@ -138,3 +138,25 @@ def write_bytes(path: str | Path, data: bytes) -> Path:
     with open_atomic(path, "wb") as handle:
         handle.write(data)
     return Path(path)
+
+
+def check_writable_folder(folder: str | Path) -> None:
+    """Raise ``OSError`` (naming ``folder``) unless files can be created in ``folder``, or,
+    when it does not exist yet, in its nearest existing ancestor; creates nothing that stays.
+    For checks before long work whose output goes there (a run, a report)."""
+    folder = Path(folder)
+    probe = folder
+    while not probe.exists():
+        if probe.parent == probe:
+            break
+        probe = probe.parent
+    if not probe.is_dir():
+        raise NotADirectoryError(20, "exists and is not a folder" if probe == folder
+                                 else f"{probe} is not a folder", str(folder))
+    temporary = probe / f"{PREFIX}{os.getpid()}.{secrets.token_hex(6)}.write-test"
+    try:
+        # A real file, not os.access: access() says yes to root on a read-only mount.
+        os.close(os.open(temporary, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600))
+        os.unlink(temporary)
+    except OSError as error:
+        raise OSError(error.errno, error.strerror or "cannot be written", str(folder)) from None

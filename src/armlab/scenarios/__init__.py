@@ -54,15 +54,17 @@ from __future__ import annotations
 import importlib
 import re
 import tomllib
+import typing
 from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
+from typing import Literal
 
 from armlab.control.adaptive import SlotineLi1DoF
 from armlab.control.base import Controller, Environment
 from armlab.errors import ArmlabError
 from armlab.model.robot import Robot
-from armlab.scenarios.tables import ScenarioFileError, build, integer, numbers, robot
+from armlab.scenarios.tables import ScenarioFileError, build, integer, numbers, read, robot
 from armlab.simulation.disturbances import TorqueDisturbance
 from armlab.specialise import choice_problem
 
@@ -76,7 +78,7 @@ for _module in DECLARING_MODULES:
 SIMULATION_KEYS = {"t_final", "dt", "q0", "qd0", "method", "control_period", "torque_limit",
                    "log_every", "limit_margin", "max_kinetic_energy", "rtol", "atol", "dynamics"}
 TOP_KEYS = {"title", "assignment", "description", "plant", "plant_link_mass", "simulation",
-            "controller", "disturbance", "environment"}
+            "controller", "disturbance", "environment", "expect"}
 
 __all__ = ["Scenario", "ScenarioFileError", "bundled_scenario_names", "list_scenarios",
            "load_scenario", "load_scenario_file", "scenario_path"]
@@ -97,6 +99,9 @@ class Scenario:
     simulation: dict = field(default_factory=dict)
     source: str = ""
     environment: Environment | None = None
+    expect: Literal["ok", "diverged"] = "ok"
+    """How the run should end: "ok" (to t_final) or "diverged" (an experiment whose point is
+    the divergence); ``armlab run`` exits with 0 when it does (``result.meta["expect"]``)."""
 
     def run(self, *, t_final: float | None = None, method: str | None = None, **overrides):
         """Simulate this scenario (``armlab.simulate``); ``t_final``/``method`` shorten or switch it."""
@@ -109,7 +114,7 @@ class Scenario:
             settings["method"] = method
         settings.update(overrides)
         meta = {"scenario": self.name, "title": self.title, "assignment": self.assignment,
-                "description": self.description, "source": self.source}
+                "description": self.description, "source": self.source, "expect": self.expect}
         try:
             return self._simulate(settings, meta)
         except SimulationError as error:
@@ -208,7 +213,10 @@ def load_scenario_file(path) -> Scenario:
     environment = None
     if "environment" in data:
         environment = build(Environment, data["environment"], path, "environment")
-    return Scenario(name=path.stem, title=str(data.get("title", path.stem)),
+    expect = "ok"
+    if "expect" in data:
+        expect = read(typing.get_type_hints(Scenario)["expect"], data["expect"], path, "expect")
+    return Scenario(name=path.stem, title=str(data.get("title", path.stem)), expect=expect,
                     assignment=str(data.get("assignment", "")), description=str(data.get("description", "")),
                     plant=plant, controller=controller, disturbance=disturbance, simulation=settings,
                     source=str(path), environment=environment)

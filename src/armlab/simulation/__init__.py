@@ -14,6 +14,9 @@ import importlib
 
 _HOMES = {"SimulationResult": "armlab.simulation.results", "STATUS": "armlab.simulation.simulator",
           "SimulationDiverged": "armlab.simulation.simulator",
+          "SimulationInterrupted": "armlab.simulation.simulator", "MAX_STEPS": "armlab.simulation.simulator",
+          "MAX_LOG_BYTES": "armlab.simulation.simulator",
+          "ADAPTIVE_MAX_STEPS": "armlab.simulation.simulator",
           "SimulationError": "armlab.simulation.simulator", "simulate": "armlab.simulation.simulator",
           "simulate_batch": "armlab.simulation.simulator"}
 

@@ -31,18 +31,30 @@ Divergence: a non-finite state, a joint beyond its limits by more than ``limit_m
 range, or kinetic energy above ``max_kinetic_energy`` stops the run; ``SimulationDiverged``
 (with the result up to that point as ``.result``) is raised, or with
 ``on_divergence="return"`` the result is returned with ``status == "diverged"``.
+
+Bounds, checked before a run starts (:data:`MAX_STEPS`, :data:`MAX_LOG_BYTES`): a run of more
+than 10⁹ steps, or whose log would need more than 4 GiB, is refused with the count or the
+size it would need.  The adaptive integrator takes at most ``max_steps`` solver steps
+(default :data:`ADAPTIVE_MAX_STEPS`; a stiff closed loop — a huge gain — can need millions
+per simulated second): it then stops, with status ``"stopped"`` and the data so far, as for a
+divergence.
+
+Ctrl-C during a run stops it after the current step: ``SimulationInterrupted`` (a
+``KeyboardInterrupt``) carries the result so far, ``status == "interrupted"``.  The compiled
+RK4 loop runs in a worker thread and polls a flag the main thread sets (``armlab.simulation.loop``).
 """
 
 from __future__ import annotations
 
 import os
+import threading
 import time
 
 import numpy as np
 
 from armlab.control.base import Controller, Environment, ProtocolError, Signal
 from armlab.dynamics import packed_copy
-from armlab.errors import SimulationDiverged, SimulationError
+from armlab.errors import SimulationDiverged, SimulationError, SimulationInterrupted
 from armlab.kernels.environment import FreeSpaceParams, free_space_law
 from armlab.simulation import loop
 from armlab.simulation.disturbances import encode_disturbances
@@ -50,7 +62,15 @@ from armlab.simulation.results import SimulationResult
 from armlab.specialise import ClosedFormUnavailable, choice_problem, plant_kernels
 
 STATUS = {1: "non-finite state", 2: "joint limit exceeded", 3: "runaway kinetic energy",
-          4: "mass matrix not positive definite"}
+          4: "mass matrix not positive definite", 5: "interrupted", 6: "step budget exhausted"}
+INTERRUPTED, BUDGET = 5, 6
+
+MAX_STEPS = 10**9
+"""Most integration steps of one run (t_final / dt): about ten minutes of RK4 for a small robot."""
+MAX_LOG_BYTES = 4 * 1024**3
+"""Most memory of one run's log (rows × columns × 8 bytes): raise ``log_every`` beyond it."""
+ADAPTIVE_MAX_STEPS = 2_000_000
+"""Default ``max_steps`` of the adaptive integrator (solver steps, each several evaluations)."""
 
 
 # --------------------------------------------------------------------------- set-up helpers
@@ -77,6 +97,9 @@ def _divergence_limits(plant, limit_margin: float) -> tuple[np.ndarray, np.ndarr
 def _steps(span: float, dt: float, field: str) -> int:
     if not np.isfinite(span):
         raise SimulationError(f"{field}: must be a finite time, got {span!r}")
+    if span / dt > MAX_STEPS:
+        raise SimulationError(f"{field}: {span:g} s at dt = {dt:g} s is {span / dt:.3g} steps, more "
+                              f"than the {MAX_STEPS:.0e} a run may take (armlab.simulation.MAX_STEPS)")
     count = int(round(span / dt))
     if count < 1 or abs(count * dt - span) > 1e-9 * max(1.0, span):
         raise SimulationError(f"{field}: {span:g} s is not a positive multiple of dt = {dt:g} s")
@@ -158,16 +181,23 @@ class _Setup:
 
     def outputs(self, rows=None):
         """The flat log of ``rows`` rows (``loop.log_views`` gives its blocks).  Every
-        row the loop reports is written in full, so it need not be zeroed."""
+        row the loop reports is written in full, so it need not be zeroed.  A log larger than
+        :data:`MAX_LOG_BYTES` is refused with the size it would need."""
         rows = self.rows if rows is None else rows
-        columns = loop.log_columns(self.n, self.k, self.layout)
-        return np.empty(rows * columns["h_e"].stop)
+        columns = loop.log_columns(self.n, self.k, self.layout)["h_e"].stop
+        size = rows * columns * 8
+        if size > MAX_LOG_BYTES:
+            raise SimulationError(f"log_every: the log of {rows} rows × {columns} columns would need "
+                                  f"{size / 1024**3:.3g} GiB, more than {MAX_LOG_BYTES / 1024**3:g} GiB "
+                                  f"(armlab.simulation.MAX_LOG_BYTES): keep fewer rows (log_every) or "
+                                  "shorten t_final")
+        return np.empty(rows * columns)
 
     def views(self, out):
         return loop.log_views(out, self.n, self.k, self.layout)
 
     def settings(self):
-        fset = np.array([0.0, self.dt, self.ke_max])
+        fset = np.array([0.0, self.dt, self.ke_max, 0.0])  # [3]: the stop flag (Ctrl-C)
         iset = np.array([self.n, self.n_steps, self.every, self.log_every,
                          int(self.environment is not None), 10, int(self.sampled), self.sig_width,
                          *self.layout], dtype=np.int64)
@@ -224,6 +254,11 @@ class _Setup:
             what += f" on joint {self.plant.joint_names[joint]}"
         elif status == 3:
             what += f" (above {self.ke_max:g} J)"
+        elif status == INTERRUPTED:
+            return f"simulation interrupted at t = {t:.6g} s (step {step}): the data up to then is kept"
+        elif status == BUDGET:
+            return (f"simulation stopped at t = {t:.6g} s: {what} ({joint} solver steps; the closed "
+                    "loop is stiff — smaller gains, the rk4 method, or a larger max_steps)")
         return f"simulation diverged at t = {t:.6g} s (step {step}): {what}"
 
 
@@ -263,7 +298,10 @@ def _finish(setup, result, status, step, joint, on_divergence):
     if status == 0:
         return result
     message = setup.diagnosis(status, step, joint, step * setup.dt)
-    result = SimulationResult(**{**vars(result), "status": "diverged", "diagnosis": message})
+    kind = {INTERRUPTED: "interrupted", BUDGET: "stopped"}.get(status, "diverged")
+    result = SimulationResult(**{**vars(result), "status": kind, "diagnosis": message})
+    if status == INTERRUPTED:
+        raise SimulationInterrupted(message, result)      # whatever on_divergence: Ctrl-C stops
     if on_divergence == "return":
         return result
     raise SimulationDiverged(message, result)
@@ -274,7 +312,8 @@ def _finish(setup, result, status, step, joint, on_divergence):
 def simulate(plant, controller, *, q0, qd0=None, t_final, dt, method="rk4", control_period=None,
              torque_limit=None, disturbance=None, environment=None, log_every=1,
              limit_margin=0.5, max_kinetic_energy=1e6, rtol=1e-10, atol=1e-12,
-             integrator="DOP853", on_divergence="raise", dynamics="auto", meta=None) -> SimulationResult:
+             integrator="DOP853", on_divergence="raise", dynamics="auto", meta=None,
+             max_steps=ADAPTIVE_MAX_STEPS) -> SimulationResult:
     """Simulate ``plant`` under ``controller`` from (q0, qd0) over [0, t_final].
 
     Parameters
@@ -298,6 +337,11 @@ def simulate(plant, controller, *, q0, qd0=None, t_final, dt, method="rk4", cont
         RNEA/CRBA kernels), "closed_form" (made now if needed: Lagrange for up to 3 joints, the
         traced kernels beyond) or "numeric" (``armlab.specialise``).
     meta : extra JSON-able entries for ``result.meta`` (scenario name, …).
+    max_steps : most solver steps of ``method="adaptive"``; beyond them the run stops with
+        ``status == "stopped"`` (raised as ``SimulationDiverged`` unless ``on_divergence="return"``).
+
+    A run of more than :data:`MAX_STEPS` steps or with a log above :data:`MAX_LOG_BYTES` is
+    refused before it starts.  Ctrl-C raises ``SimulationInterrupted`` with ``.result``.
     """
     if method not in ("rk4", "adaptive"):
         raise SimulationError(f"method: {method!r} is not 'rk4' or 'adaptive'")
@@ -306,21 +350,56 @@ def simulate(plant, controller, *, q0, qd0=None, t_final, dt, method="rk4", cont
             raise SimulationError(f"{name}: must be a positive tolerance, got {value!r}")
     if on_divergence not in ("raise", "return"):
         raise SimulationError(f"on_divergence: {on_divergence!r} is not 'raise' or 'return'")
+    if isinstance(max_steps, bool) or not (isinstance(max_steps, (int, np.integer)) and max_steps >= 1):
+        raise SimulationError(f"max_steps: must be a positive integer, got {max_steps!r}")
     setup = _Setup(plant, controller, q0, qd0, t_final, dt, control_period, torque_limit,
                    disturbance, environment, log_every, limit_margin, max_kinetic_energy, dynamics)
     if method == "rk4":
         return _run_rk4(setup, controller.params(), meta, on_divergence)
-    return _run_adaptive(setup, controller.params(), meta, on_divergence, rtol, atol, integrator)
+    return _run_adaptive(setup, controller.params(), meta, on_divergence, rtol, atol, integrator,
+                         int(max_steps))
 
 
 def _run_rk4(setup, cparams, meta, on_divergence):
     fset, iset = setup.settings()
     out = setup.outputs()
     start = time.perf_counter()
-    status, rows, step, joint = _rk4(setup, cparams, fset, iset, out)
+    status, rows, step, joint = _interruptible(lambda: _rk4(setup, cparams, fset, iset, out), fset)
     meta = {**(meta or {}), "wall_time": time.perf_counter() - start}
     result = setup.result(setup.views(out), rows, "rk4", meta)
     return _finish(setup, result, status, step, joint, on_divergence)
+
+
+def _interruptible(run, fset):
+    """``run()`` (the compiled loop, which releases the GIL) in a worker thread, so that the
+    main thread can take Ctrl-C meanwhile: it then sets the loop's stop flag ``fset[3]``,
+    and the loop returns after its current step (status 5).  A second Ctrl-C is taken as
+    usual (a KeyboardInterrupt while waiting)."""
+    if threading.current_thread() is not threading.main_thread():
+        return run()                 # signals go to the main thread: nothing to take here
+    outcome, done = [], threading.Event()
+
+    def target():
+        try:
+            outcome.append((True, run()))
+        except BaseException as error:  # noqa: BLE001 — re-raised in the caller's thread
+            outcome.append((False, error))
+        finally:
+            done.set()
+
+    # Waited for with an Event, not Thread.join: a join interrupted by Ctrl-C may mark a running
+    # thread as finished (CPython 3.11).
+    threading.Thread(target=target, name="armlab-simulation", daemon=True).start()
+    try:
+        while not done.wait(0.1):
+            pass
+    except KeyboardInterrupt:
+        fset[3] = 1.0
+        done.wait()
+    ok, value = outcome[0]
+    if not ok:
+        raise value
+    return value
 
 
 def _rk4(setup, cparams, fset, iset, out):
@@ -331,9 +410,50 @@ def _rk4(setup, cparams, fset, iset, out):
                                out)
 
 
-def _run_adaptive(setup, cparams, meta, on_divergence, rtol, atol, integrator):
-    from scipy.integrate import solve_ivp
+SOLVERS = ("RK23", "RK45", "DOP853", "Radau", "BDF", "LSODA")
 
+
+def _solve(rhs, t0, t1, x0, integrator, rtol, atol, t_eval, args, budget):
+    """``solve_ivp(rhs, (t0, t1), x0, method=integrator, t_eval=t_eval, args=args)``, step
+    for step the same loop (SciPy's solver class, its dense output at the points of ``t_eval``
+    each step passes), but stopping after ``budget`` solver steps or at Ctrl-C with the points
+    reached so far.  Returns (xs (K, m), status, steps): status 0 done, −1 the solver failed,
+    ``BUDGET`` or ``INTERRUPTED``."""
+    import scipy.integrate
+
+    def fun(t, x):
+        return rhs(t, x, *args)
+
+    solver = getattr(scipy.integrate, integrator)(fun, float(t0), np.asarray(x0), float(t1),
+                                                  rtol=rtol, atol=atol)
+    points, done, steps, status = [], 0, 0, None
+    while status is None:
+        if steps >= budget:
+            status = BUDGET
+            break
+        try:
+            solver.step()
+        except KeyboardInterrupt:
+            status = INTERRUPTED
+            break
+        steps += 1
+        if solver.status == "finished":
+            status = 0
+        elif solver.status == "failed":
+            status = -1
+            break
+        # The points of t_eval up to and including the solver's time, from its interpolant.
+        upto = int(np.searchsorted(t_eval, solver.t, side="right"))
+        if upto > done:
+            points.append(solver.dense_output()(t_eval[done:upto]).T)
+            done = upto
+    xs = np.vstack(points) if points else np.zeros((0, np.asarray(x0).shape[0]))
+    return xs, status, steps
+
+
+def _run_adaptive(setup, cparams, meta, on_divergence, rtol, atol, integrator, max_steps):
+    if integrator not in SOLVERS:
+        raise SimulationError(f"integrator: {integrator!r} is not one of {', '.join(SOLVERS)}")
     n, width = setup.n, setup.sig_width
     fn, pp, work = setup.workspace(cparams)
     cplain, eplain = loop.plain_params(cparams), loop.plain_params(setup.eparams)
@@ -359,32 +479,42 @@ def _run_adaptive(setup, cparams, meta, on_divergence, rtol, atol, integrator):
     spans = [(0, setup.n_steps)] if not setup.sampled else [
         (i, min(i + setup.every, setup.n_steps)) for i in range(0, setup.n_steps, setup.every)]
     zdot_held = np.zeros(setup.k)
-    for first, last in spans:
-        if setup.sampled:
-            if first > 0:
-                x[2 * n:] += setup.every * setup.dt * zdot_held
-            loop.rhs(rhs_core, fn, grid[first], x, pp, cplain, eplain, setup.dist,
-                            has_env, True, 0.0, setup.lim, work, width, xdot)
-            zdot_held = work[loop.zdot_slice(n, setup.k)].copy()
-        solution = solve_ivp(rhs, (grid[first], grid[last]), x, method=integrator, rtol=rtol,
-                             atol=atol, t_eval=grid[first:last + 1],
-                             args=(not setup.sampled, 0.0 if setup.sampled else 1.0))
-        xs = np.ascontiguousarray(solution.y.T)
-        keep = xs.shape[0] if last == setup.n_steps else xs.shape[0] - 1
-        bad, code, where = loop.check_rows(fn, pp, xs[:keep], setup.q_lo, setup.q_hi,
-                                                  setup.ke_max, work)
-        if bad >= 0:
-            status, step, joint, keep = code, first + bad, where, bad
-        loop.log_rows(log_core, fn, grid[first:first + keep],
-                             np.ascontiguousarray(xs[:keep]), pp, cplain, eplain,
-                             setup.dist, has_env, not setup.sampled, setup.lim, work, setup.layout,
-                             out, rows)
-        rows += keep
-        if status == 0 and solution.status != 0:
-            status, step = 1, first + keep
-        if status != 0:
-            break
-        x = xs[-1].copy()
+    steps_left = max_steps
+    try:
+        for first, last in spans:
+            if setup.sampled:
+                if first > 0:
+                    x[2 * n:] += setup.every * setup.dt * zdot_held
+                loop.rhs(rhs_core, fn, grid[first], x, pp, cplain, eplain, setup.dist,
+                                has_env, True, 0.0, setup.lim, work, width, xdot)
+                zdot_held = work[loop.zdot_slice(n, setup.k)].copy()
+            args = (not setup.sampled, 0.0 if setup.sampled else 1.0)
+            xs, solved, used = _solve(rhs, grid[first], grid[last], x, integrator, rtol, atol,
+                                      grid[first:last + 1], args, steps_left)
+            steps_left -= used
+            xs = np.ascontiguousarray(xs)
+            # A finished span's last point is the next span's first; a stopped span keeps all.
+            keep = xs.shape[0] if (last == setup.n_steps or solved != 0) else xs.shape[0] - 1
+            bad, code, where = loop.check_rows(fn, pp, xs[:keep], setup.q_lo, setup.q_hi,
+                                                      setup.ke_max, work)
+            if bad >= 0:
+                status, step, joint, keep = code, first + bad, where, bad
+            loop.log_rows(log_core, fn, grid[first:first + keep],
+                                 np.ascontiguousarray(xs[:keep]), pp, cplain, eplain,
+                                 setup.dist, has_env, not setup.sampled, setup.lim, work, setup.layout,
+                                 out, rows)
+            rows += keep
+            if status == 0 and solved != 0:
+                status, step = (1 if solved == -1 else solved), first + keep
+                joint = max_steps if solved == BUDGET else -1      # the budget, for the diagnosis
+            if status != 0:
+                break
+            x = xs[-1].copy()
+    except KeyboardInterrupt:
+        # Ctrl-C outside a solver step (the law at a sample, the checks, the logging): the
+        # rows logged so far are kept.
+        status, step, joint = INTERRUPTED, rows, -1
+
     def thin(view):
         return np.ascontiguousarray(view[0:rows:setup.log_every])
 
