@@ -151,8 +151,8 @@ def check_writable_folder(folder: str | Path) -> None:
             break
         probe = probe.parent
     if not probe.is_dir():
-        raise NotADirectoryError(20, "exists and is not a folder" if probe == folder
-                                 else f"{probe} is not a folder", str(folder))
+        raise NotADirectoryError(20, "exists and is not a directory" if probe == folder
+                                 else f"{probe} is not a directory", str(folder))
     temporary = probe / f"{PREFIX}{os.getpid()}.{secrets.token_hex(6)}.write-test"
     try:
         # A real file, not os.access: access() says yes to root on a read-only mount.

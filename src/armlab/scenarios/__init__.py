@@ -76,7 +76,8 @@ for _module in DECLARING_MODULES:
     importlib.import_module(_module)
 
 SIMULATION_KEYS = {"t_final", "dt", "q0", "qd0", "method", "control_period", "torque_limit",
-                   "log_every", "limit_margin", "max_kinetic_energy", "rtol", "atol", "dynamics"}
+                   "log_every", "limit_margin", "max_kinetic_energy", "rtol", "atol", "dynamics",
+                   "max_steps"}
 TOP_KEYS = {"title", "assignment", "description", "plant", "plant_link_mass", "simulation",
             "controller", "disturbance", "environment", "expect"}
 
@@ -172,7 +173,7 @@ def _settings(simulation, path) -> dict:
             raise ScenarioFileError(path, f"simulation.{key}", choice_problem(value))
         if key in ("method", "dynamics"):
             settings[key] = str(value)
-        elif key == "log_every":
+        elif key in ("log_every", "max_steps"):
             settings[key] = integer(value, path, f"simulation.{key}")
         else:
             settings[key] = numbers(value, path, f"simulation.{key}")

@@ -35,9 +35,10 @@ range, or kinetic energy above ``max_kinetic_energy`` stops the run; ``Simulatio
 Bounds, checked before a run starts (:data:`MAX_STEPS`, :data:`MAX_LOG_BYTES`): a run of more
 than 10⁹ steps, or whose log would need more than 4 GiB, is refused with the count or the
 size it would need.  The adaptive integrator takes at most ``max_steps`` solver steps
-(default :data:`ADAPTIVE_MAX_STEPS`; a stiff closed loop — a huge gain — can need millions
-per simulated second): it then stops, with status ``"stopped"`` and the data so far, as for a
-divergence.
+(default: :data:`ADAPTIVE_STEPS_PER_SECOND` per simulated second, at least
+:data:`ADAPTIVE_MIN_STEPS`; a stiff closed loop — a huge gain — can need millions per
+simulated second, minutes of wall time each): it then stops, with status ``"stopped"`` and
+the data so far, as for a divergence.
 
 Ctrl-C during a run stops it after the current step: ``SimulationInterrupted`` (a
 ``KeyboardInterrupt``) carries the result so far, ``status == "interrupted"``.  The compiled
@@ -69,8 +70,9 @@ MAX_STEPS = 10**9
 """Most integration steps of one run (t_final / dt): about ten minutes of RK4 for a small robot."""
 MAX_LOG_BYTES = 4 * 1024**3
 """Most memory of one run's log (rows × columns × 8 bytes): raise ``log_every`` beyond it."""
-ADAPTIVE_MAX_STEPS = 2_000_000
-"""Default ``max_steps`` of the adaptive integrator (solver steps, each several evaluations)."""
+ADAPTIVE_STEPS_PER_SECOND, ADAPTIVE_MIN_STEPS = 10_000, 100_000
+"""Default ``max_steps`` of the adaptive integrator: 10⁴ solver steps per simulated second, at
+least 10⁵ (the bundled scenarios take 10–500 per second; a step costs ~0.1–1 ms of wall time)."""
 
 
 # --------------------------------------------------------------------------- set-up helpers
@@ -313,7 +315,7 @@ def simulate(plant, controller, *, q0, qd0=None, t_final, dt, method="rk4", cont
              torque_limit=None, disturbance=None, environment=None, log_every=1,
              limit_margin=0.5, max_kinetic_energy=1e6, rtol=1e-10, atol=1e-12,
              integrator="DOP853", on_divergence="raise", dynamics="auto", meta=None,
-             max_steps=ADAPTIVE_MAX_STEPS) -> SimulationResult:
+             max_steps=None) -> SimulationResult:
     """Simulate ``plant`` under ``controller`` from (q0, qd0) over [0, t_final].
 
     Parameters
@@ -337,7 +339,8 @@ def simulate(plant, controller, *, q0, qd0=None, t_final, dt, method="rk4", cont
         RNEA/CRBA kernels), "closed_form" (made now if needed: Lagrange for up to 3 joints, the
         traced kernels beyond) or "numeric" (``armlab.specialise``).
     meta : extra JSON-able entries for ``result.meta`` (scenario name, …).
-    max_steps : most solver steps of ``method="adaptive"``; beyond them the run stops with
+    max_steps : most solver steps of ``method="adaptive"`` (default: see the module); beyond
+        them the run stops with
         ``status == "stopped"`` (raised as ``SimulationDiverged`` unless ``on_divergence="return"``).
 
     A run of more than :data:`MAX_STEPS` steps or with a log above :data:`MAX_LOG_BYTES` is
@@ -350,12 +353,15 @@ def simulate(plant, controller, *, q0, qd0=None, t_final, dt, method="rk4", cont
             raise SimulationError(f"{name}: must be a positive tolerance, got {value!r}")
     if on_divergence not in ("raise", "return"):
         raise SimulationError(f"on_divergence: {on_divergence!r} is not 'raise' or 'return'")
-    if isinstance(max_steps, bool) or not (isinstance(max_steps, (int, np.integer)) and max_steps >= 1):
+    if max_steps is not None and (isinstance(max_steps, bool) or not (
+            isinstance(max_steps, (int, np.integer)) and max_steps >= 1)):
         raise SimulationError(f"max_steps: must be a positive integer, got {max_steps!r}")
     setup = _Setup(plant, controller, q0, qd0, t_final, dt, control_period, torque_limit,
                    disturbance, environment, log_every, limit_margin, max_kinetic_energy, dynamics)
     if method == "rk4":
         return _run_rk4(setup, controller.params(), meta, on_divergence)
+    if max_steps is None:
+        max_steps = max(ADAPTIVE_MIN_STEPS, ADAPTIVE_STEPS_PER_SECOND * setup.n_steps * setup.dt)
     return _run_adaptive(setup, controller.params(), meta, on_divergence, rtol, atol, integrator,
                          int(max_steps))
 
@@ -521,7 +527,7 @@ def _run_adaptive(setup, cparams, meta, on_divergence, rtol, atol, integrator, m
     thinned = {name: tuple(map(thin, view)) if name == "sig" else thin(view)
                for name, view in setup.views(out).items()}
     meta = {**(meta or {}), "wall_time": time.perf_counter() - start, "integrator": integrator,
-            "rtol": rtol, "atol": atol}
+            "rtol": rtol, "atol": atol, "solver_steps": max_steps - steps_left, "max_steps": max_steps}
     result = setup.result(thinned, thinned["t"].shape[0], "adaptive", meta)
     return _finish(setup, result, status, step, joint, on_divergence)
 
