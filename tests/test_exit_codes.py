@@ -8,10 +8,10 @@ import warnings
 from pathlib import Path
 
 import pytest
-from synthetic_results import synthetic_result
 
 from armlab.cli import BAD_INPUT, DIVERGED, EXIT_CODES, INTERNAL_ERROR, INTERRUPTED, OK, build_parser, main
 from armlab.scenarios import ScenarioFileError, load_scenario_file, scenario_path
+from synthetic_results import synthetic_result
 
 
 def _one_line(text: str) -> str:
@@ -21,7 +21,8 @@ def _one_line(text: str) -> str:
 
 
 def test_the_codes_are_distinct_and_documented_in_help_and_readme():
-    assert len(set(EXIT_CODES)) == 5 and {OK, INTERNAL_ERROR, BAD_INPUT, DIVERGED, INTERRUPTED} == set(EXIT_CODES)
+    assert {OK, INTERNAL_ERROR, BAD_INPUT, DIVERGED, INTERRUPTED} == set(EXIT_CODES)
+    assert len({OK, INTERNAL_ERROR, BAD_INPUT, DIVERGED, INTERRUPTED}) == 5
     help_text = build_parser().format_help()
     readme = (Path(__file__).resolve().parents[1] / "README.md").read_text(encoding="utf-8")
     for code in EXIT_CODES:
@@ -44,7 +45,8 @@ def test_an_expected_divergence_is_success_and_an_unexpected_one_is_not(tmp_path
                                 lambda t: t.replace('expect = "diverged"', ""))
     assert main(["run", str(unexpected), "--out", str(tmp_path / "b"), "--t-final", "4"]) == DIVERGED
     # Expected to diverge, but stopped before it does: also not what the scenario says.
-    assert main(["run", "a15_parallel_outside_image", "--out", str(tmp_path / "c"), "--t-final", "0.5"]) == DIVERGED
+    short = ["run", "a15_parallel_outside_image", "--out", str(tmp_path / "c"), "--t-final", "0.5"]
+    assert main(short) == DIVERGED
     assert "expects the run to end diverged" in capsys.readouterr().err
 
 

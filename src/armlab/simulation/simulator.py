@@ -191,8 +191,9 @@ class _Setup:
         if size > MAX_LOG_BYTES:
             raise SimulationError(f"log_every: the log of {rows} rows × {columns} columns would need "
                                   f"{size / 1024**3:.3g} GiB, more than {MAX_LOG_BYTES / 1024**3:g} GiB "
-                                  f"(armlab.simulation.MAX_LOG_BYTES): keep fewer rows (log_every) or "
-                                  "shorten t_final")
+                                  "(armlab.simulation.MAX_LOG_BYTES): keep fewer rows (log_every; the "
+                                  "adaptive method logs every dt before thinning), a larger dt or a "
+                                  "shorter t_final")
         return np.empty(rows * columns)
 
     def views(self, out):
@@ -433,26 +434,25 @@ def _solve(rhs, t0, t1, x0, integrator, rtol, atol, t_eval, args, budget):
     solver = getattr(scipy.integrate, integrator)(fun, float(t0), np.asarray(x0), float(t1),
                                                   rtol=rtol, atol=atol)
     points, done, steps, status = [], 0, 0, None
-    while status is None:
-        if steps >= budget:
-            status = BUDGET
-            break
-        try:
+    try:
+        while status is None:
+            if steps >= budget:
+                status = BUDGET
+                break
             solver.step()
-        except KeyboardInterrupt:
-            status = INTERRUPTED
-            break
-        steps += 1
-        if solver.status == "finished":
-            status = 0
-        elif solver.status == "failed":
-            status = -1
-            break
-        # The points of t_eval up to and including the solver's time, from its interpolant.
-        upto = int(np.searchsorted(t_eval, solver.t, side="right"))
-        if upto > done:
-            points.append(solver.dense_output()(t_eval[done:upto]).T)
-            done = upto
+            steps += 1
+            if solver.status == "finished":
+                status = 0
+            elif solver.status == "failed":
+                status = -1
+                break
+            # The points of t_eval up to and including the solver's time, from its interpolant.
+            upto = int(np.searchsorted(t_eval, solver.t, side="right"))
+            if upto > done:
+                points.append(solver.dense_output()(t_eval[done:upto]).T)
+                done = upto
+    except KeyboardInterrupt:
+        status = INTERRUPTED            # the points appended so far are complete
     xs = np.vstack(points) if points else np.zeros((0, np.asarray(x0).shape[0]))
     return xs, status, steps
 
@@ -466,8 +466,8 @@ def _run_adaptive(setup, cparams, meta, on_divergence, rtol, atol, integrator, m
     rhs_core, log_core = loop.core_address("rhs"), loop.core_address("log")
     has_env = setup.environment is not None
     xdot = np.zeros_like(setup.x0)
+    out = setup.outputs(setup.n_steps + 1)        # first: it refuses a log that would not fit
     grid = np.arange(setup.n_steps + 1) * setup.dt
-    out = setup.outputs(setup.n_steps + 1)
     start = time.perf_counter()
 
     def rhs(t, x, call_law, z_rate):
