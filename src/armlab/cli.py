@@ -16,6 +16,7 @@ import traceback
 import warnings
 
 from armlab import __version__
+from armlab.caches import repaired
 from armlab.errors import ArmlabError, SimulationDiverged
 
 COMMANDS = (
@@ -72,8 +73,15 @@ def main(argv: list[str] | None = None) -> int:
     with warnings.catch_warnings():
         if getattr(args, "quiet", False):
             warnings.simplefilter("ignore")
+
+        def one_line(message, category, filename, lineno, file=None, line=None):
+            # A warning is one line too: what, not where in armlab's source it was raised.
+            print(f"{prefix}: warning: {message}", file=sys.stderr)
+
+        warnings.showwarning = one_line
         try:
-            return int(args.func(args) or 0)
+            # A damaged compile cache is discarded and the command run once more (armlab.caches).
+            return int(repaired(args.func, args) or 0)
         except SimulationDiverged as error:
             print(f"{prefix}: {error}", file=sys.stderr)
             return DIVERGED

@@ -51,6 +51,9 @@ def run(args) -> int:
         print(f"final |q_err| max: {worst:.3g}")
     for path in written:
         print(f"wrote {path}")
+    if result.meta.get("dynamics_fallback") and not args.quiet:
+        print(f"armlab run: note: the numeric dynamics ran: {result.meta['dynamics_fallback']}",
+              file=sys.stderr)
     if result.status == "interrupted":
         print(f"armlab run: {result.diagnosis}", file=sys.stderr)
         return INTERRUPTED

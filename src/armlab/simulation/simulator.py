@@ -53,6 +53,7 @@ import time
 
 import numpy as np
 
+from armlab.caches import repaired
 from armlab.control.base import Controller, Environment, ProtocolError, Signal
 from armlab.dynamics import packed_copy
 from armlab.errors import SimulationDiverged, SimulationError, SimulationInterrupted
@@ -60,7 +61,7 @@ from armlab.kernels.environment import FreeSpaceParams, free_space_law
 from armlab.simulation import loop
 from armlab.simulation.disturbances import encode_disturbances
 from armlab.simulation.results import SimulationResult
-from armlab.specialise import ClosedFormUnavailable, choice_problem, plant_kernels
+from armlab.specialise import ClosedFormUnavailable, choice_problem, closed_form_status, plant_kernels
 
 STATUS = {1: "non-finite state", 2: "joint limit exceeded", 3: "runaway kinetic energy",
           4: "mass matrix not positive definite", 5: "interrupted", 6: "step budget exhausted"}
@@ -162,6 +163,9 @@ class _Setup:
             self.dynamics, self.forward_dynamics, self.kinetic_energy = plant_kernels(plant, dynamics)
         except ClosedFormUnavailable as error:
             raise SimulationError(f"dynamics: {error}") from None
+        # Why the numeric kernels run where a generated module was on disk (a damaged or
+        # disagreeing module): recorded in the result, never silent.
+        self.fallback = closed_form_status(plant) if self.dynamics == "numeric" != dynamics else ""
         self.law = _compiled(type(controller).law, f"{type(controller).__name__}.law")
         entry = _own_entry(type(controller))
         self.entry = None if entry is None else _compiled(entry, f"{type(controller).__name__}.entry")
@@ -243,6 +247,8 @@ class _Setup:
                 "torque_limit": self.lim.tolist(), "log_every": self.log_every,
                 "disturbance": _describe_terms(self.disturbance),
                 "environment": self.environment.describe() if self.environment is not None else None}
+        if self.fallback:
+            info["dynamics_fallback"] = self.fallback
         info.update(meta or {})
         return SimulationResult(t=o_t, q=o_q, qd=o_qd, qdd=o_qdd,
                                 tau=o_tau, z=o_z, signals=signals, labels=labels,
@@ -354,17 +360,18 @@ def simulate(plant, controller, *, q0, qd0=None, t_final, dt, method="rk4", cont
             raise SimulationError(f"{name}: must be a positive tolerance, got {value!r}")
     if on_divergence not in ("raise", "return"):
         raise SimulationError(f"on_divergence: {on_divergence!r} is not 'raise' or 'return'")
+    # A damaged compile cache met while setting up is discarded and rebuilt (armlab.caches).
+    setup = repaired(_Setup, plant, controller, q0, qd0, t_final, dt, control_period, torque_limit,
+                     disturbance, environment, log_every, limit_margin, max_kinetic_energy, dynamics)
     if max_steps is not None and (isinstance(max_steps, bool) or not (
             isinstance(max_steps, (int, np.integer)) and max_steps >= 1)):
         raise SimulationError(f"max_steps: must be a positive integer, got {max_steps!r}")
-    setup = _Setup(plant, controller, q0, qd0, t_final, dt, control_period, torque_limit,
-                   disturbance, environment, log_every, limit_margin, max_kinetic_energy, dynamics)
     if method == "rk4":
-        return _run_rk4(setup, controller.params(), meta, on_divergence)
+        return repaired(_run_rk4, setup, controller.params(), meta, on_divergence)
     if max_steps is None:
         max_steps = max(ADAPTIVE_MIN_STEPS, ADAPTIVE_STEPS_PER_SECOND * setup.n_steps * setup.dt)
-    return _run_adaptive(setup, controller.params(), meta, on_divergence, rtol, atol, integrator,
-                         int(max_steps))
+    return repaired(_run_adaptive, setup, controller.params(), meta, on_divergence, rtol, atol,
+                    integrator, int(max_steps))
 
 
 def _run_rk4(setup, cparams, meta, on_divergence):

@@ -33,7 +33,10 @@ compile (~7 s for the Puma560) happen once per robot and machine.  Every module,
 on disk, is checked against the compiled kernels (``armlab.kernels``) at random states before
 it is used in a process (relative agreement 1e-9); one that disagrees, or a robot whose model
 cannot be generated, falls back to the numeric kernels with the reason in
-:func:`closed_form_status`.  The outcome is kept per process by the robot's key, never in the
+:func:`closed_form_status` (a simulation records it in ``result.meta["dynamics_fallback"]``).
+The module's last line is the SHA-256 of the rest: a module found truncated or edited is
+generated again (with a ``CacheWarning``), never imported.  The outcome is kept per process by
+the robot's key, never in the
 robot.
 
 The choice, ``dynamics=``:
@@ -55,11 +58,12 @@ import os
 import sys
 import tempfile
 import threading
+import warnings
 from pathlib import Path
 
 import numpy as np
 
-from armlab.errors import ClosedFormUnavailable
+from armlab.errors import CacheWarning, ClosedFormUnavailable
 from armlab.files import write_text
 from armlab.kernels.dynamics import make_workspace, rnea_into
 from armlab.kernels.plant import (
@@ -199,8 +203,29 @@ def _generate(robot: Robot, key: str, path: Path) -> None:
         from armlab.specialise.traced import traced_source
 
         source = traced_source(robot, key=key)
-    # Written atomically: parallel processes may generate the same module.
-    write_text(path, source)
+    # Written atomically: parallel processes may generate the same module.  The last line holds
+    # the digest of the rest, checked before every import (_intact).
+    body = source if source.endswith("\n") else source + "\n"
+    write_text(path, body + _digest_line(body))
+
+
+_DIGEST = "# armlab-source-sha256: "
+
+
+def _digest_line(body: str) -> str:
+    return f"{_DIGEST}{hashlib.sha256(body.encode('utf-8')).hexdigest()}\n"
+
+
+def _intact(path: Path) -> bool:
+    """Whether the module at ``path`` is complete and unchanged since it was generated: its
+    last line is the SHA-256 of everything before it (a truncated or damaged file is not)."""
+    try:
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError):
+        return False
+    head, _, last = text[:-1].rpartition("\n")
+    body = head + "\n"
+    return text.endswith("\n") and text == body + _digest_line(body) and last.startswith(_DIGEST)
 
 
 def _import(path: Path, name: str):
@@ -265,7 +290,20 @@ def _verify(robot: Robot, module) -> str:
 
 def _load(robot: Robot, key: str, path: Path):
     """The module at ``path`` imported and checked (its numba cache lies beside it), or
-    :class:`ClosedFormUnavailable`; either outcome is kept for ``key``."""
+    :class:`ClosedFormUnavailable`; either outcome is kept for ``key``.  A module that is not
+    intact on disk (truncated, edited: :func:`_intact`) is generated again first, with a
+    :class:`CacheWarning`, never imported."""
+    if not _intact(path):
+        warnings.warn(f"{path}: generated module damaged or incomplete; generating it again",
+                      CacheWarning, stacklevel=3)
+        try:
+            path.unlink(missing_ok=True)
+            _generate(robot, key, path)
+        except Exception as error:  # as for a first generation: say why, fall back
+            first_line = (str(error).strip().splitlines() or [""])[0]
+            _OUTCOMES[key] = reason = (f"no closed form for robot {robot.name!r}: "
+                                       f"{type(error).__name__}: {first_line}")
+            raise ClosedFormUnavailable(reason) from None
     try:
         module = _import(path, _module_name(key))
         reason = _verify(robot, module)
