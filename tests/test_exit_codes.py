@@ -118,3 +118,13 @@ def test_quiet_silences_progress_and_warnings(monkeypatch, tmp_path, capsys):
         shown = [str(w.message) for w in seen]
         assert shown == ([] if quiet else ["a warning a user would see"])
         assert ("running" in capsys.readouterr().err) is not quiet
+
+
+def test_a_start_outside_the_joint_limits_is_refused_before_the_run(tmp_path, capsys):
+    bad = _scenario_copy(tmp_path, "a6_pd_online", lambda t: t.replace("q0 = [0, 0, 0]", "q0 = [5, 0, 0]"))
+    assert "q0 = [5, 0, 0]" in bad.read_text()
+    out = tmp_path / "out"
+    assert main(["run", str(bad), "--out", str(out)]) == BAD_INPUT
+    assert _one_line(capsys.readouterr().err.split("\n", 1)[1]).endswith(
+        "simulation.q0: joint d1 = 5 is outside its limits [-0.15, 0.35]")
+    assert not out.exists()

@@ -97,6 +97,17 @@ def _divergence_limits(plant, limit_margin: float) -> tuple[np.ndarray, np.ndarr
             np.where(np.isfinite(arrays.q_max), arrays.q_max + margin, np.inf))
 
 
+def _check_start(plant, q0) -> None:
+    """A start outside the joint limits is refused before the run (it would "diverge" at its
+    first step): one line naming the joint, its value and its limits."""
+    lo, hi = plant.arrays.q_min, plant.arrays.q_max
+    outside = np.flatnonzero((q0 < lo) | (q0 > hi))
+    if outside.size:
+        i = int(outside[0])
+        raise SimulationError(f"q0: joint {plant.joint_names[i]} = {q0[i]:g} is outside its limits "
+                              f"[{lo[i]:g}, {hi[i]:g}]")
+
+
 def _steps(span: float, dt: float, field: str) -> int:
     if not np.isfinite(span):
         raise SimulationError(f"{field}: must be a finite time, got {span!r}")
@@ -148,6 +159,7 @@ class _Setup:
         if not (np.isfinite(limit_margin) and limit_margin >= 0):
             raise SimulationError(f"limit_margin: must be a finite fraction ≥ 0, got {limit_margin!r}")
         self.q_lo, self.q_hi = _divergence_limits(plant, float(limit_margin))
+        _check_start(plant, q0)
         self.ke_max = float(max_kinetic_energy)
         self.dist = encode_disturbances(disturbance, n)
         self.disturbance = disturbance
