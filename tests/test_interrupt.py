@@ -139,3 +139,18 @@ def test_sigint_to_armlab_run_saves_the_data_marked_interrupted_and_exits_130(tm
         assert result.status == "interrupted" and 0 < result.t[-1] < 20000.0
     np.testing.assert_array_equal(loaded[0].q, loaded[1].q)
     assert "wrote" in stdout
+
+
+def test_closed_form_dynamics_of_a_long_chain_are_refused_up_front_with_the_estimate():
+    from armlab.errors import ClosedFormUnavailable
+    from armlab.model.robot import DHRow, Inertial, Joint, Link, Robot
+    from armlab.specialise.closed_form import CLOSED_FORM_MAX_JOINTS
+
+    n = CLOSED_FORM_MAX_JOINTS + 6
+    joints = [Joint.from_dh(f"j{i}", "revolute", DHRow(a=0.1, alpha=0.3 * i, d=0.05, theta=0.0))
+              for i in range(n)]
+    links = [Link(f"l{i}", Inertial(mass=1.0)) for i in range(n)]
+    chain = Robot(name="chain30", joints=tuple(joints), links=tuple(links))
+    with pytest.raises(ClosedFormUnavailable, match=r"30 joints, more than the 24 .* about 2 min"):
+        armlab.inverse_dynamics(chain, np.zeros(n), np.zeros(n), np.zeros(n), dynamics="closed_form")
+    assert np.isfinite(armlab.inverse_dynamics(chain, np.zeros(n), np.zeros(n), np.zeros(n))).all()

@@ -76,6 +76,10 @@ from armlab.model.robot import Robot
 
 # Up to this many joints the Lagrange closed form (armlab.symbolic), beyond it the traced one.
 LAGRANGE_MAX_JOINTS = 3
+# Beyond this many joints no module is generated: generating and compiling the traced code
+# grows as n³ (about 2 min and 0.5 GB at 30 joints, 15 min and 2 GB at 60), while the numeric
+# kernels serve any size at once.
+CLOSED_FORM_MAX_JOINTS = 24
 DYNAMICS_CHOICES = ("auto", "closed_form", "numeric")
 # The outcome for each robot key met in this process: its checked module, or why there is none.
 _OUTCOMES: dict = {}
@@ -331,6 +335,12 @@ def closed_form_module(robot: Robot):
             if known is None:
                 try:
                     path = _on_disk(key)
+                    if path is None and robot.n > CLOSED_FORM_MAX_JOINTS:
+                        minutes = 2.0 * (robot.n / 30) ** 3
+                        raise ClosedFormUnavailable(
+                            f"{robot.n} joints, more than the {CLOSED_FORM_MAX_JOINTS} a generated module "
+                            f"is made for (it would take about {minutes:.0f} min to generate and compile); "
+                            "the numeric kernels (dynamics=\"numeric\") serve any size")
                     if path is None:
                         path = _writable_folder() / f"{_module_name(key)}.py"
                         _generate(robot, key, path)
