@@ -134,3 +134,13 @@ def test_the_cli_leaves_the_warnings_module_as_it_found_it(capsys):
     before = warnings.showwarning
     assert main(["scenarios"]) == 0
     assert warnings.showwarning is before
+
+
+def test_an_unwritable_cache_folder_falls_back_to_a_private_one_with_a_warning(tmp_path, monkeypatch):
+    blocked = tmp_path / "a-file"
+    blocked.write_text("not a folder")
+    monkeypatch.setenv("ARMLAB_CACHE_DIR", str(blocked))
+    with pytest.warns(CacheWarning, match="cache folder cannot be written"):
+        folder = closed_form._writable_folder()
+    assert folder == closed_form._private_folder() and folder.is_dir()
+    assert blocked.read_text() == "not a folder"

@@ -64,7 +64,7 @@ from pathlib import Path
 import numpy as np
 
 from armlab.errors import CacheWarning, ClosedFormUnavailable
-from armlab.files import write_text
+from armlab.files import check_writable_folder, write_text
 from armlab.kernels.dynamics import make_workspace, rnea_into
 from armlab.kernels.plant import (
     forward_dynamics_packed,
@@ -188,8 +188,10 @@ def _writable_folder() -> Path:
     folder = cache_dir() / "closed_form"
     try:
         folder.mkdir(parents=True, exist_ok=True)
-        (folder / ".write-test").touch()
-    except OSError:
+        check_writable_folder(folder)          # leaves nothing behind
+    except OSError as error:
+        warnings.warn(f"{folder}: cache folder cannot be written ({error.strerror or error}); "
+                      f"using {_private_folder()}", CacheWarning, stacklevel=4)
         folder = _private_folder()
         folder.mkdir(mode=0o700, exist_ok=True)
         if not _is_private(folder):
