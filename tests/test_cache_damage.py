@@ -144,3 +144,36 @@ def test_an_unwritable_cache_folder_falls_back_to_a_private_one_with_a_warning(t
         folder = closed_form._writable_folder()
     assert folder == closed_form._private_folder() and folder.is_dir()
     assert blocked.read_text() == "not a folder"
+
+
+FULL_DISK = '''
+import resource, signal, sys, warnings
+# Writes beyond 2 kB fail (EFBIG) as on a full disk, where numba's cache check (creating an
+# empty file) still passes and only the save of a compiled kernel fails.
+signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+resource.setrlimit(resource.RLIMIT_FSIZE, (2000, resource.RLIM_INFINITY))
+sys.path.insert(0, sys.argv[1])
+from armlab.caches import repaired
+import probe_module
+with warnings.catch_warnings(record=True) as seen:
+    warnings.simplefilter("always")
+    print(repaired(probe_module.quad, 1.5), repaired(probe_module.quad, 2.5))
+print(" | ".join(f"{w.category.__name__}: {w.message}" for w in seen))
+'''
+
+
+@pytest.mark.skipif(sys.platform == "win32", reason="resource limits are POSIX")
+def test_a_cache_that_cannot_be_written_degrades_to_compiling_in_memory_with_a_warning(tmp_path):
+    folder = tmp_path / "armlab_probe"
+    folder.mkdir()
+    (folder / "probe_module.py").write_text(PROBE + "\n\n@njit(cache=True)\ndef quad(x):\n"
+                                            "    return twice(twice(x))\n")
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "numba"), "PYTHONDONTWRITEBYTECODE": "1",
+           "PYTHONPATH": os.pathsep.join([str(SRC), os.environ.get("PYTHONPATH", "")])}
+    done = subprocess.run([sys.executable, "-c", FULL_DISK, str(folder)], env=env, capture_output=True,
+                          text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    values, seen = done.stdout.splitlines()
+    assert values == "6.0 10.0"
+    assert seen.startswith("CacheWarning: the compile cache cannot be written") and " | " not in seen
+    assert "compiling in memory" in seen

@@ -16,8 +16,11 @@ fresh files.  A file is damaged when it is not what numba writes: an ``.nbc`` is
 an ``.nbi`` two (numba's version, then the index), read here with ``pickletools.genops``,
 which parses the opcodes without building or running anything.  If the loader failed and no
 file looks damaged, every armlab cache file is discarded (they are rebuilt the same way).
-A failure to *write* the cache (a full or read-only disk) is not a damaged file: it is
-reported as it is.
+A failure to *write* the cache (a full disk, a read-only or missing folder) is not a damaged
+file: the kernel has been compiled and registered in memory before numba tries to save it, so
+:func:`repaired` warns once (:class:`CacheWarning`) and runs the work again, as often as there
+are kernels to compile (each retry finds the kernels compiled so far in memory): the process
+works without a disk cache, and compiles again next time.
 """
 
 from __future__ import annotations
@@ -34,22 +37,29 @@ _PACKAGE = Path(__file__).resolve().parent
 _SUFFIXES = (".nbi", ".nbc")
 
 
-def _numba_frames(error: BaseException) -> bool:
-    traceback = error.__traceback__
+def _numba_frames(error: BaseException) -> list[str]:
+    """Names of the functions of numba's cache module the traceback of ``error`` passes through."""
+    names, traceback = [], error.__traceback__
     while traceback is not None:
-        name = traceback.tb_frame.f_code.co_filename.replace(os.sep, "/")
-        if name.endswith("numba/core/caching.py"):
-            return True
+        code = traceback.tb_frame.f_code
+        if code.co_filename.replace(os.sep, "/").endswith("numba/core/caching.py"):
+            names.append(code.co_name)
         traceback = traceback.tb_next
-    return False
+    return names
+
+
+def is_cache_write_fault(error: BaseException) -> bool:
+    """Whether ``error`` was raised while numba *saved* a compiled kernel (no space, no
+    permission): the kernel itself was compiled and is in memory."""
+    return isinstance(error, OSError) and "save_overload" in _numba_frames(error)
 
 
 def is_cache_fault(error: BaseException) -> bool:
     """Whether ``error`` was raised while numba *read* a cache file (a damaged entry)."""
     if not isinstance(error, Exception) or not _numba_frames(error):
         return False
-    # Writing needs space and permission: a damaged file is not the cause, deleting would not help.
-    return not isinstance(error, OSError) or isinstance(error, FileNotFoundError)
+    # A failure to write is not a damaged file: deleting files would not help.
+    return not is_cache_write_fault(error)
 
 
 def cache_folders() -> list[Path]:
@@ -111,18 +121,36 @@ def discard_damaged(everything: bool = False) -> list[Path]:
     return removed
 
 
+MAX_RETRIES = 1000
+"""Most runs of the work by :func:`repaired` when numba cannot write its cache (one per kernel
+compiled in memory; a whole report compiles a few hundred)."""
+
+
 def repaired(work, *args, **kwargs):
     """``work(*args, **kwargs)``; if it fails on a damaged numba cache entry, the damaged
-    entries are discarded (one :class:`CacheWarning`) and ``work`` runs once more."""
-    try:
-        return work(*args, **kwargs)
-    except Exception as error:
-        if not is_cache_fault(error):
-            raise
-        removed = discard_damaged() or discard_damaged(everything=True)
-        if not removed:
-            raise
-        names = ", ".join(path.name for path in removed[:4]) + (" …" if len(removed) > 4 else "")
-        warnings.warn(f"damaged compile cache ({type(error).__name__}): discarded {len(removed)} "
-                      f"file(s) ({names}); compiling again", CacheWarning, stacklevel=2)
+    entries are discarded (one :class:`CacheWarning`) and ``work`` runs once more; if it fails
+    because numba cannot write its cache, it runs again until every kernel it needs is
+    compiled in memory (one :class:`CacheWarning`)."""
+    repaired_once, warned = False, False
+    for _ in range(MAX_RETRIES):
+        try:
+            return work(*args, **kwargs)
+        except Exception as error:
+            if is_cache_write_fault(error):
+                if not warned:
+                    where = f" ({error.filename})" if error.filename else ""
+                    warnings.warn(f"the compile cache cannot be written{where}: "
+                                  f"{error.strerror or error}; compiling in memory for this run",
+                                  CacheWarning, stacklevel=2)
+                    warned = True
+                continue
+            if repaired_once or not is_cache_fault(error):
+                raise
+            removed = discard_damaged() or discard_damaged(everything=True)
+            if not removed:
+                raise
+            repaired_once = True
+            names = ", ".join(path.name for path in removed[:4]) + (" …" if len(removed) > 4 else "")
+            warnings.warn(f"damaged compile cache ({type(error).__name__}): discarded {len(removed)} "
+                          f"file(s) ({names}); compiling again", CacheWarning, stacklevel=2)
     return work(*args, **kwargs)
