@@ -48,7 +48,6 @@ RK4 loop runs in a worker thread and polls a flag the main thread sets (``armlab
 from __future__ import annotations
 
 import os
-import threading
 import time
 
 import numpy as np
@@ -61,11 +60,11 @@ from armlab.kernels.environment import FreeSpaceParams, free_space_law
 from armlab.simulation import loop
 from armlab.simulation.disturbances import encode_disturbances
 from armlab.simulation.results import SimulationResult
+from armlab.simulation.stepping import BUDGET, INTERRUPTED, SOLVERS, run_interruptible, solve_stepwise
 from armlab.specialise import ClosedFormUnavailable, choice_problem, closed_form_status, plant_kernels
 
 STATUS = {1: "non-finite state", 2: "joint limit exceeded", 3: "runaway kinetic energy",
           4: "mass matrix not positive definite", 5: "interrupted", 6: "step budget exhausted"}
-INTERRUPTED, BUDGET = 5, 6
 
 MAX_STEPS = 10**9
 """Most integration steps of one run (t_final / dt): about ten minutes of RK4 for a small robot."""
@@ -379,53 +378,21 @@ def simulate(plant, controller, *, q0, qd0=None, t_final, dt, method="rk4", cont
             isinstance(max_steps, (int, np.integer)) and max_steps >= 1)):
         raise SimulationError(f"max_steps: must be a positive integer, got {max_steps!r}")
     if method == "rk4":
-        return repaired(_run_rk4, setup, controller.params(), meta, on_divergence)
+        return repaired(lambda: _run_rk4(setup, controller.params(), meta, on_divergence))
     if max_steps is None:
         max_steps = max(ADAPTIVE_MIN_STEPS, ADAPTIVE_STEPS_PER_SECOND * setup.n_steps * setup.dt)
-    return repaired(_run_adaptive, setup, controller.params(), meta, on_divergence, rtol, atol,
-                    integrator, int(max_steps))
+    return repaired(lambda: _run_adaptive(setup, controller.params(), meta, on_divergence, rtol, atol,
+                                          integrator, int(max_steps)))
 
 
 def _run_rk4(setup, cparams, meta, on_divergence):
     fset, iset = setup.settings()
     out = setup.outputs()
     start = time.perf_counter()
-    status, rows, step, joint = _interruptible(lambda: _rk4(setup, cparams, fset, iset, out), fset)
+    status, rows, step, joint = run_interruptible(lambda: _rk4(setup, cparams, fset, iset, out), fset)
     meta = {**(meta or {}), "wall_time": time.perf_counter() - start}
     result = setup.result(setup.views(out), rows, "rk4", meta)
     return _finish(setup, result, status, step, joint, on_divergence)
-
-
-def _interruptible(run, fset):
-    """``run()`` (the compiled loop, which releases the GIL) in a worker thread, so that the
-    main thread can take Ctrl-C meanwhile: it then sets the loop's stop flag ``fset[3]``,
-    and the loop returns after its current step (status 5).  A second Ctrl-C is taken as
-    usual (a KeyboardInterrupt while waiting)."""
-    if threading.current_thread() is not threading.main_thread():
-        return run()                 # signals go to the main thread: nothing to take here
-    outcome, done = [], threading.Event()
-
-    def target():
-        try:
-            outcome.append((True, run()))
-        except BaseException as error:  # noqa: BLE001 — re-raised in the caller's thread
-            outcome.append((False, error))
-        finally:
-            done.set()
-
-    # Waited for with an Event, not Thread.join: a join interrupted by Ctrl-C may mark a running
-    # thread as finished (CPython 3.11).
-    threading.Thread(target=target, name="armlab-simulation", daemon=True).start()
-    try:
-        while not done.wait(0.1):
-            pass
-    except KeyboardInterrupt:
-        fset[3] = 1.0
-        done.wait()
-    ok, value = outcome[0]
-    if not ok:
-        raise value
-    return value
 
 
 def _rk4(setup, cparams, fset, iset, out):
@@ -434,46 +401,6 @@ def _rk4(setup, cparams, fset, iset, out):
     return loop.rk4_run(loop.core_address("rk4"), fn, pp, cplain, eplain, setup.dist,
                                setup.x0.copy(), work, fset, iset, setup.lim, setup.q_lo, setup.q_hi,
                                out)
-
-
-SOLVERS = ("RK23", "RK45", "DOP853", "Radau", "BDF", "LSODA")
-
-
-def _solve(rhs, t0, t1, x0, integrator, rtol, atol, t_eval, args, budget):
-    """``solve_ivp(rhs, (t0, t1), x0, method=integrator, t_eval=t_eval, args=args)``, step
-    for step the same loop (SciPy's solver class, its dense output at the points of ``t_eval``
-    each step passes), but stopping after ``budget`` solver steps or at Ctrl-C with the points
-    reached so far.  Returns (xs (K, m), status, steps): status 0 done, −1 the solver failed,
-    ``BUDGET`` or ``INTERRUPTED``."""
-    import scipy.integrate
-
-    def fun(t, x):
-        return rhs(t, x, *args)
-
-    solver = getattr(scipy.integrate, integrator)(fun, float(t0), np.asarray(x0), float(t1),
-                                                  rtol=rtol, atol=atol)
-    points, done, steps, status = [], 0, 0, None
-    try:
-        while status is None:
-            if steps >= budget:
-                status = BUDGET
-                break
-            solver.step()
-            steps += 1
-            if solver.status == "finished":
-                status = 0
-            elif solver.status == "failed":
-                status = -1
-                break
-            # The points of t_eval up to and including the solver's time, from its interpolant.
-            upto = int(np.searchsorted(t_eval, solver.t, side="right"))
-            if upto > done:
-                points.append(solver.dense_output()(t_eval[done:upto]).T)
-                done = upto
-    except KeyboardInterrupt:
-        status = INTERRUPTED            # the points appended so far are complete
-    xs = np.vstack(points) if points else np.zeros((0, np.asarray(x0).shape[0]))
-    return xs, status, steps
 
 
 def _run_adaptive(setup, cparams, meta, on_divergence, rtol, atol, integrator, max_steps):
@@ -514,7 +441,7 @@ def _run_adaptive(setup, cparams, meta, on_divergence, rtol, atol, integrator, m
                                 has_env, True, 0.0, setup.lim, work, width, xdot)
                 zdot_held = work[loop.zdot_slice(n, setup.k)].copy()
             args = (not setup.sampled, 0.0 if setup.sampled else 1.0)
-            xs, solved, used = _solve(rhs, grid[first], grid[last], x, integrator, rtol, atol,
+            xs, solved, used = solve_stepwise(rhs, grid[first], grid[last], x, integrator, rtol, atol,
                                       grid[first:last + 1], args, steps_left)
             steps_left -= used
             xs = np.ascontiguousarray(xs)
