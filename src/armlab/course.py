@@ -38,6 +38,7 @@ from pathlib import Path
 import numpy as np
 
 from armlab.dynamics import gravity_torque, inertia_matrix
+from armlab.files import write_text
 from armlab.kinematics import forward_kinematics, geometric_jacobian
 from armlab.model.robot import Robot
 from armlab.spatial import euler_from_matrix
@@ -303,7 +304,5 @@ def write_course(robot: Robot, reference: str, folder, *, seed: int = SEED,
     folder.mkdir(parents=True, exist_ok=True)
     paths = []
     for name, text in files.items():
-        path = folder / name
-        path.write_text(text, encoding="utf-8")
-        paths.append(path)
+        paths.append(write_text(folder / name, text))
     return paths, skipped

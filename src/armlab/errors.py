@@ -25,8 +25,14 @@ Each class is also the builtin a Python programmer would catch for the same faul
     ├── ProtocolError (TypeError)          an object that does not follow a protocol (a law that
     │   └── IndirectCallError              is not compiled, a callee with the wrong return type)
     ├── ClosedFormUnavailable (RuntimeError)   no usable generated dynamics for a robot (says why)
-    ├── SimulationDiverged (RuntimeError)  the closed loop diverged; ``.result`` keeps the data
+    ├── SimulationDiverged (RuntimeError)  the closed loop diverged (or was stopped by its step
+    │                                      budget); ``.result`` keeps the data
     └── CommandError                       a command-line argument armlab cannot use
+
+    SimulationInterrupted (KeyboardInterrupt)  Ctrl-C during a run; ``.result`` keeps the data
+                                           (not an ArmlabError: ``except Exception`` must not stop
+                                           a Ctrl-C)
+    CacheWarning (UserWarning)             a damaged or unusable cache entry was discarded
 """
 
 from __future__ import annotations
@@ -180,6 +186,20 @@ class SimulationDiverged(ArmlabError, RuntimeError):
 def _rebuild(cls, args, keywords):
     """An exception rebuilt in another process from its arguments (``__reduce__``)."""
     return cls(*args, **keywords)
+
+
+class SimulationInterrupted(KeyboardInterrupt):
+    """Ctrl-C stopped a run; ``result`` holds the data up to the last complete step (status
+    ``"interrupted"``).  A KeyboardInterrupt, so that a script stops as it would anyway."""
+
+    def __init__(self, message: str, result):
+        super().__init__(message)
+        self.result = result
+
+
+class CacheWarning(UserWarning):
+    """A cache entry (a compiled kernel, a generated module) was damaged or could not be
+    written; it was discarded and rebuilt, or the work is done without the cache."""
 
 
 class CommandError(ArmlabError):

@@ -1,104 +1,162 @@
-"""Reading the input files armlab is given (robots, scenarios, URDFs): regular files of a
-bounded size only, decoded and parsed with one-line errors.
+"""Atomic file writes: every file armlab writes appears complete or not at all.
 
-Files travel between people, so none is trusted: before a byte is read the path must name a
-regular file (a FIFO would block the reader forever, a device such as ``/dev/zero`` never
-ends, a directory has no text) no larger than the limit of its kind.  The limits are far above
-any real robot or scenario file and are documented in ``docs/robot-files.md`` and
-``docs/scenario-files.md``.  Every problem raises the caller's :class:`FileFieldError`
-subclass as ``<file>: file: <what is wrong>`` (or ``<file>: syntax: …`` for TOML syntax).
+Contract of :func:`replacing` (and of :func:`write_text`, :func:`write_bytes`, :func:`open_atomic`
+built on it): the content goes to a temporary file of a unique name in the target's folder,
+is flushed to disk (``fsync``) and renamed onto the target (``os.replace``, atomic on POSIX and
+Windows within one file system).  Hence
+
+* a reader sees the old file or the new one, never a mixture or a truncated file;
+* concurrent writers of one target never corrupt it: the last complete write wins;
+* a failure (full disk, read-only folder, an exception of the writer, Ctrl-C) removes the
+  temporary file and raises the original error, an ``OSError`` naming the *target* file;
+  a failure of that clean-up never hides it.
+
+Temporary files are named ``.armlab-tmp.<pid>.<random>.<target name>``: hidden, recognisable,
+and with the target's suffix (tools that choose a format by suffix still work).  A writer
+killed outright (``kill -9``, power loss) cannot remove its own; the next write into the same
+folder removes those whose process no longer runs on this machine (a temporary file of a live
+writer is never touched).
 """
 
 from __future__ import annotations
 
+import contextlib
 import os
-import stat
-import tomllib
+import secrets
 from pathlib import Path
 
-from armlab.errors import FileFieldError
-
-TOML_LIMIT = 2 * 1024 * 1024
-"""Largest robot or scenario TOML file read [bytes] (2 MiB)."""
-
-URDF_LIMIT = 16 * 1024 * 1024
-"""Largest URDF file read [bytes] (16 MiB)."""
-
-_KINDS = ((stat.S_ISDIR, "a directory"), (stat.S_ISFIFO, "a FIFO (named pipe)"),
-          (stat.S_ISCHR, "a character device"), (stat.S_ISBLK, "a block device"),
-          (stat.S_ISSOCK, "a socket"))
+PREFIX = ".armlab-tmp."
 
 
-def _kind(mode: int) -> str:
-    return next((name for test, name in _KINDS if test(mode)), "not a regular file")
-
-
-def _size(count: int) -> str:
-    return f"{count / (1024 * 1024):.1f} MiB" if count >= 1024 * 1024 else f"{count} bytes"
-
-
-def read_input_bytes(path, error: type[FileFieldError], limit: int) -> bytes:
-    """The bytes of the regular file ``path``, at most ``limit`` of them.
-
-    A path that is not a regular file (after following symbolic links) or holds more than
-    ``limit`` bytes raises ``error(path, "file", reason)`` without reading it.  The file is
-    opened without blocking and checked again once open, so a FIFO swapped in after the first
-    check cannot stall the reader, and at most ``limit + 1`` bytes are ever read.
-    """
-    path = Path(path)
-
-    def refuse(reason: str):
-        raise error(path, "file", reason)
-
-    flags = os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_NOCTTY", 0)
+def _alive(pid: int) -> bool:
+    if pid == os.getpid():
+        return True
     try:
-        mode = os.stat(path).st_mode
-        fd = os.open(path, flags) if stat.S_ISREG(mode) else None
-    except OSError as problem:
-        refuse(f"cannot be read ({problem.strerror or problem})")
-    except ValueError:  # a NUL character in the path
-        refuse("cannot be read (the path contains a NUL character)")
-    if fd is None:
-        refuse(f"is {_kind(mode)}, not a regular file")
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except (PermissionError, OSError):
+        return True            # exists (another user's process) or cannot tell: keep it
+    return True
+
+
+def sweep(folder: str | Path) -> list[Path]:
+    """Remove the temporary files that dead writers left in ``folder``; returns them."""
+    removed = []
     try:
-        info = os.fstat(fd)
-        if not stat.S_ISREG(info.st_mode):
-            refuse(f"is {_kind(info.st_mode)}, not a regular file")
-        if info.st_size > limit:
-            refuse(f"is {_size(info.st_size)}, more than the {_size(limit)} read at most")
-        with os.fdopen(os.dup(fd), "rb") as stream:
-            data = stream.read(limit + 1)
-    except OSError as problem:
-        refuse(f"cannot be read ({problem.strerror or problem})")
+        entries = list(os.scandir(folder))
+    except OSError:
+        return removed
+    for entry in entries:
+        if not entry.name.startswith(PREFIX):
+            continue
+        pid = entry.name[len(PREFIX):].split(".", 1)[0]
+        if not pid.isdigit() or _alive(int(pid)):
+            continue
+        with contextlib.suppress(OSError):
+            os.unlink(entry.path)
+            removed.append(Path(entry.path))
+    return removed
+
+
+def _target_error(error: OSError, path: Path) -> OSError:
+    """``error`` as an OSError naming ``path`` (the temporary name means nothing to a user)."""
+    if error.errno is None:
+        return error
+    named = OSError(error.errno, error.strerror or str(error), str(path))
+    named.__cause__ = error
+    return named
+
+
+def _fsync(path, directory: bool = False) -> None:
+    flags = os.O_RDONLY | (getattr(os, "O_DIRECTORY", 0) if directory else 0)
+    try:
+        fd = os.open(path, flags)
+    except OSError:
+        if directory:
+            return             # some systems cannot open a folder: the rename is still atomic
+        raise
+    try:
+        os.fsync(fd)
+    except OSError:
+        if not directory:
+            raise
     finally:
         os.close(fd)
-    if len(data) > limit:
-        refuse(f"is more than the {_size(limit)} read at most")
-    return data
 
 
-def read_input_text(path, error: type[FileFieldError], limit: int) -> str:
-    """:func:`read_input_bytes` decoded as UTF-8 (``file: is not UTF-8 text`` otherwise)."""
-    data = read_input_bytes(path, error, limit)
+@contextlib.contextmanager
+def replacing(path: str | Path):
+    """Yield the :class:`Path` of a new empty temporary file beside ``path``; when the block
+    ends without an exception it is synced and renamed onto ``path`` (see the module)."""
+    path = Path(path)
+    folder = path.parent
+    sweep(folder)
+    while True:
+        temporary = folder / f"{PREFIX}{os.getpid()}.{secrets.token_hex(6)}.{path.name}"
+        try:
+            # Created like any new file (mode 0o666 less the umask), unlike mkstemp's 0o600.
+            os.close(os.open(temporary, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666))
+            break
+        except FileExistsError:
+            continue
+        except OSError as error:
+            raise _target_error(error, path) from None
     try:
-        return data.decode("utf-8")
-    except UnicodeDecodeError:
-        raise error(path, "file", "is not UTF-8 text") from None
+        yield temporary
+        _fsync(temporary)
+        os.replace(temporary, path)
+    except BaseException as error:
+        with contextlib.suppress(OSError):
+            temporary.unlink()
+        if isinstance(error, OSError):
+            raise _target_error(error, path) from None
+        raise
+    _fsync(folder, directory=True)
 
 
-def read_input_toml(path, error: type[FileFieldError], limit: int = TOML_LIMIT) -> dict:
-    """The parsed TOML of the input file ``path``.
+@contextlib.contextmanager
+def open_atomic(path: str | Path, mode: str = "w", encoding: str | None = None, newline=None):
+    """``open(path, mode)`` for writing (``"w"`` or ``"wb"``), through :func:`replacing`."""
+    if mode not in ("w", "wb"):
+        raise ValueError(f"mode: {mode!r} is not 'w' or 'wb'")
+    if mode == "w" and encoding is None:
+        encoding = "utf-8"
+    with replacing(path) as temporary, open(temporary, mode, encoding=encoding, newline=newline) as handle:
+        yield handle
 
-    Besides syntax errors, ``tomllib`` lets some valid-looking text escape as other exceptions:
-    an integer of more than 4300 digits (``ValueError``), arrays nested a thousand deep
-    (``RecursionError``); each becomes ``<file>: syntax: <reason>``.
-    """
-    text = read_input_text(path, error, limit)
+
+def write_text(path: str | Path, text: str, encoding: str = "utf-8") -> Path:
+    """Write ``text`` to ``path`` atomically; returns the path."""
+    with open_atomic(path, "w", encoding=encoding) as handle:
+        handle.write(text)
+    return Path(path)
+
+
+def write_bytes(path: str | Path, data: bytes) -> Path:
+    """Write ``data`` to ``path`` atomically; returns the path."""
+    with open_atomic(path, "wb") as handle:
+        handle.write(data)
+    return Path(path)
+
+
+def check_writable_folder(folder: str | Path) -> None:
+    """Raise ``OSError`` (naming ``folder``) unless files can be created in ``folder``, or,
+    when it does not exist yet, in its nearest existing ancestor; creates nothing that stays.
+    For checks before long work whose output goes there (a run, a report)."""
+    folder = Path(folder)
+    probe = folder
+    while not probe.exists():
+        if probe.parent == probe:
+            break
+        probe = probe.parent
+    if not probe.is_dir():
+        raise NotADirectoryError(20, "exists and is not a directory" if probe == folder
+                                 else f"{probe} is not a directory", str(folder))
+    temporary = probe / f"{PREFIX}{os.getpid()}.{secrets.token_hex(6)}.write-test"
     try:
-        return tomllib.loads(text)
-    except tomllib.TOMLDecodeError as problem:
-        raise error(path, "syntax", str(problem)) from None
-    except RecursionError:
-        raise error(path, "syntax", "arrays or tables nested too deeply") from None
-    except (ValueError, MemoryError) as problem:
-        raise error(path, "syntax", str(problem) or type(problem).__name__) from None
+        # A real file, not os.access: access() says yes to root on a read-only mount.
+        os.close(os.open(temporary, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600))
+        os.unlink(temporary)
+    except OSError as error:
+        raise OSError(error.errno, error.strerror or "cannot be written", str(folder)) from None

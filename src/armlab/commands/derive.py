@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import sys
+import time
+
 from armlab.commands import add_tip_argument
 
 
@@ -23,6 +26,7 @@ def register(subparsers) -> None:
                         help="substitute the parameter values instead of keeping symbols")
     parser.add_argument("--only", choices=("A1", "A2", "A3", "A4", "A5"),
                         help="derive a single assignment")
+    parser.add_argument("--quiet", action="store_true", help="no progress lines and no warnings")
     parser.set_defaults(func=run)
 
 
@@ -33,7 +37,16 @@ def run(args) -> int:
     # SymPy (seconds to import) only once the robot file has been read without error.
     from armlab.symbolic import derive, render
 
-    sections = derive(robot, frame=args.frame, numeric=args.numeric, only=args.only)
+    # One assignment at a time, each announced on stderr with the time it took: the symbolic
+    # work grows quickly with the joints (minutes for long chains) and must not look hung.
+    sections = []
+    for key in [args.only] if args.only else ["A1", "A2", "A3", "A4", "A5"]:
+        if not args.quiet:
+            print(f"deriving {key} for {robot.n} joints ...", end="", file=sys.stderr, flush=True)
+        started = time.perf_counter()
+        sections += derive(robot, frame=args.frame, numeric=args.numeric, only=key)
+        if not args.quiet:
+            print(f" {time.perf_counter() - started:.1f} s", file=sys.stderr, flush=True)
     heading = f"{robot.name}: symbolic model" + (" (numeric parameters)" if args.numeric else "")
     print(render(sections, args.fmt, numeric=args.numeric, heading=heading), end="")
     return 0

@@ -21,11 +21,19 @@ def register(subparsers) -> None:
                         help="a fast preview: the first scenario of each assignment, runs shortened, "
                              "no animation (the numbers are those of the short runs)")
     parser.add_argument("--no-animation", action="store_true", help="leave out the GIF")
-    parser.add_argument("--quiet", action="store_true", help="no progress bar")
+    parser.add_argument("--quiet", action="store_true", help="no progress bar and no warnings")
     parser.set_defaults(func=run)
 
 
 def run(args) -> int:
+    from armlab.errors import CommandError
+    from armlab.files import check_writable_folder
+
+    try:
+        # Before minutes of runs: a report that cannot be written is said at once.
+        check_writable_folder(args.out)
+    except OSError as error:
+        raise CommandError(f"--out: {args.out}: {error.strerror or 'cannot be written'}") from None
     from armlab.robots import load_robot
     from armlab.viz.report import build_report
 

@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from armlab.errors import RobotFileError
-from armlab.files import read_input_toml
+from armlab.inputs import read_input_toml
 from armlab.model.inertia import box_inertia, cylinder_inertia, inertia_problem, sphere_inertia, steiner
 from armlab.model.robot import DHRow, Friction, Inertial, Joint, Link, Motor, Robot, nonfinite_part
 from armlab.spatial import rpy_matrix, skew, transform
@@ -440,7 +440,7 @@ def _robot(data: dict, file: str) -> Robot:
 def load_robot_toml(path: str | Path) -> Robot:
     """Load a TOML robot file; malformed input raises :class:`RobotFileError`.
 
-    The file must be a regular file of at most ``armlab.files.TOML_LIMIT`` bytes.
+    The file must be a regular file of at most ``armlab.inputs.TOML_LIMIT`` bytes.
     """
     data = read_input_toml(path, RobotFileError)
     return robot_from_dict(data, str(path))

@@ -42,7 +42,7 @@ from pathlib import Path
 
 import numpy as np
 
-from armlab.files import URDF_LIMIT, read_input_bytes
+from armlab.inputs import URDF_LIMIT, read_input_bytes
 from armlab.model.inertia import inertia_problem, steiner
 from armlab.model.robot import Friction, Inertial, Joint, Link, Robot, nonfinite_part
 from armlab.model.toml_io import RobotFileError, axis_alignment
@@ -171,10 +171,11 @@ def to_urdf(robot: Robot) -> str:
 
 
 def save_urdf(robot: Robot, path: str | Path) -> Path:
-    """Write :func:`to_urdf` of ``robot`` to ``path``; returns the path."""
-    path = Path(path)
-    path.write_text(to_urdf(robot), encoding="utf-8")
-    return path
+    """Write :func:`to_urdf` of ``robot`` to ``path`` (atomically: complete or not at all,
+    ``armlab.files``); returns the path."""
+    from armlab.files import write_text
+
+    return write_text(Path(path), to_urdf(robot))
 
 
 # ----------------------------------------------------------------------------------- import
@@ -188,7 +189,7 @@ def _fail(path, field: str, reason: str):
 def _parse(path: Path):
     """The ``yourdfpy`` robot of ``path``; unreadable or malformed files fail in one line.
 
-    The file (a regular file of at most ``armlab.files.URDF_LIMIT`` bytes) is read once and
+    The file (a regular file of at most ``armlab.inputs.URDF_LIMIT`` bytes) is read once and
     checked by :func:`~armlab.model.urdf_check.check_urdf_document` — no DTD, so no entity is
     ever expanded or loaded; root ``<robot>``; unique names; finite numeric attributes of the
     right length — before ``yourdfpy`` parses the same bytes.

@@ -55,6 +55,7 @@ from __future__ import annotations
 
 import importlib
 import re
+import typing
 from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
@@ -65,7 +66,7 @@ import numpy as np
 from armlab.control.adaptive import SlotineLi1DoF
 from armlab.control.base import Controller, Environment
 from armlab.errors import ArmlabError
-from armlab.files import read_input_toml
+from armlab.inputs import read_input_toml
 from armlab.model.robot import Robot
 from armlab.scenarios.tables import Condition, ScenarioFileError, build, read, robot
 from armlab.simulation.disturbances import TorqueDisturbance
@@ -87,13 +88,14 @@ SIMULATION_FIELDS = {
     "limit_margin": Annotated[float, Condition("≥ 0", lambda value: value >= 0)],
     "max_kinetic_energy": _Positive, "rtol": _Positive, "atol": _Positive,
     "dynamics": Literal[DYNAMICS_CHOICES], "joint_limits": Literal["ignore", "warn", "stop"],
+    "max_steps": Annotated[int, _POSITIVE],
 }
 """The ``[simulation]`` keys (keyword arguments of ``armlab.simulate``), read as annotated."""
 SIMULATION_KEYS = set(SIMULATION_FIELDS)
 PER_JOINT = ("q0", "qd0", "torque_limit")
 """Simulation keys holding a number (every joint) or one number per joint."""
 TOP_KEYS = {"title", "assignment", "description", "plant", "plant_link_mass", "plant_tip", "simulation",
-            "controller", "disturbance", "environment"}
+            "controller", "disturbance", "environment", "expect"}
 
 __all__ = ["Scenario", "ScenarioFileError", "bundled_scenario_names", "list_scenarios",
            "load_scenario", "load_scenario_file", "scenario_path"]
@@ -114,6 +116,9 @@ class Scenario:
     simulation: dict = field(default_factory=dict)
     source: str = ""
     environment: Environment | None = None
+    expect: Literal["ok", "diverged"] = "ok"
+    """How the run should end: "ok" (to t_final) or "diverged" (an experiment whose point is
+    the divergence); ``armlab run`` exits with 0 when it does (``result.meta["expect"]``)."""
 
     def run(self, *, t_final: float | None = None, method: str | None = None, **overrides):
         """Simulate this scenario (``armlab.simulate``); ``t_final``/``method`` shorten or switch it."""
@@ -126,7 +131,7 @@ class Scenario:
             settings["method"] = method
         settings.update(overrides)
         meta = {"scenario": self.name, "title": self.title, "assignment": self.assignment,
-                "description": self.description, "source": self.source}
+                "description": self.description, "source": self.source, "expect": self.expect}
         try:
             return self._simulate(settings, meta)
         except SimulationError as error:
@@ -159,7 +164,7 @@ class Scenario:
 
 def read_scenario_toml(path: Path) -> dict:
     """The parsed TOML of a scenario file (a regular file of at most
-    ``armlab.files.TOML_LIMIT`` bytes); unreadable or malformed files raise one line."""
+    ``armlab.inputs.TOML_LIMIT`` bytes); unreadable or malformed files raise one line."""
     return read_input_toml(path, ScenarioFileError)
 
 
@@ -225,7 +230,10 @@ def load_scenario_file(path) -> Scenario:
         environment = build(Environment, data["environment"], path, "environment")
     texts = {key: read(str, data.get(key, default), path, key)
              for key, default in (("title", path.stem), ("assignment", ""), ("description", ""))}
-    return Scenario(name=path.stem, **texts, plant=plant, controller=controller,
+    expect = "ok"
+    if "expect" in data:
+        expect = read(typing.get_type_hints(Scenario)["expect"], data["expect"], path, "expect")
+    return Scenario(name=path.stem, **texts, expect=expect, plant=plant, controller=controller,
                     disturbance=disturbance, simulation=settings, source=str(path),
                     environment=environment)
 

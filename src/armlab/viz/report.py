@@ -31,6 +31,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from armlab.errors import ArmlabError  # noqa: E402
+from armlab.files import write_text  # noqa: E402
 from armlab.model.robot import Robot  # noqa: E402
 from armlab.robots import load_robot  # noqa: E402
 from armlab.simulation.joint_limits import JointLimitWarning, describe_crossing  # noqa: E402
@@ -514,7 +515,7 @@ def build_report(robot: str | Robot = "prp", out_dir: str | Path = "report", *, 
                 f"built in {elapsed:.0f} s by armlab report"]
     page = html.document(f"armlab report — {robot.name}", subtitle, nav, "".join(sections))
     path = out_dir / "report.html"
-    path.write_text(page, encoding="utf-8")
+    write_text(path, page)  # atomic: a killed or failed build keeps the previous report
     progress.close(f"wrote {path} ({path.stat().st_size / 1e6:.1f} MB)")
     return path
 
