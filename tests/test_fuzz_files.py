@@ -304,8 +304,9 @@ def test_link_mass_overrides_are_checked(folder, mass, reason):
 
 
 # ------------------------------------------------------------------ the command line
-class _Loaded(Exception):
-    """Raised instead of simulating: the scenario file was read and checked."""
+class _Loaded(BaseException):
+    """Raised instead of simulating: the scenario file was read and checked (a BaseException,
+    so that the command line's catch-all for internal errors lets it through)."""
 
 
 def _cli(argv: list[str]) -> tuple[int | None, str]:

@@ -7,6 +7,16 @@ import time
 
 from armlab.commands import add_tip_argument
 
+MAX_JOINTS = 12
+"""Longest chain ``armlab derive`` takes without ``--no-limit``: the derivation costs about
+30 s of CPU for six joints and grows roughly as n³ (measured: 8 s for the PRP's 3 joints, 30 s
+for the Puma560's 6), so 12 joints is already ~4 min and 30 joints over an hour."""
+
+
+def estimate_seconds(n: int) -> float:
+    """Rough CPU time [s] of deriving A1–A5 for ``n`` joints (see :data:`MAX_JOINTS`)."""
+    return 30.0 * (n / 6.0) ** 3
+
 
 def register(subparsers) -> None:
     parser = subparsers.add_parser(
@@ -27,13 +37,20 @@ def register(subparsers) -> None:
     parser.add_argument("--only", choices=("A1", "A2", "A3", "A4", "A5"),
                         help="derive a single assignment")
     parser.add_argument("--quiet", action="store_true", help="no progress lines and no warnings")
+    parser.add_argument("--no-limit", action="store_true",
+                        help=f"derive a chain of more than {MAX_JOINTS} joints anyway (it may take hours)")
     parser.set_defaults(func=run)
 
 
 def run(args) -> int:
+    from armlab.errors import CommandError
     from armlab.robots import load_robot
 
     robot = load_robot(args.robot, tip=args.tip)
+    if robot.n > MAX_JOINTS and not args.no_limit:
+        minutes = estimate_seconds(robot.n) / 60
+        raise CommandError(f"{robot.name} has {robot.n} joints: deriving it would take about "
+                           f"{minutes:.0f} min of CPU (more than {MAX_JOINTS} joints needs --no-limit)")
     # SymPy (seconds to import) only once the robot file has been read without error.
     from armlab.symbolic import derive, render
 

@@ -142,13 +142,11 @@ def _cached_symbolic_sections(robot: Robot, progress: Progress) -> dict[int, str
     except (OSError, ValueError):
         pass
     sections = _symbolic_sections(robot, progress)
-    partial = path.with_name(f"{path.name}.{os.getpid()}.tmp")
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
-        partial.write_text(json.dumps({str(k): v for k, v in sections.items()}), encoding="utf-8")
-        os.replace(partial, path)  # whole or not at all
+        write_text(path, json.dumps({str(k): v for k, v in sections.items()}))  # whole or not at all
     except OSError:
-        partial.unlink(missing_ok=True)
+        pass  # a cache that cannot be written only costs the next report its derivation
     return sections
 
 
@@ -411,7 +409,8 @@ def build_report(robot: str | Robot = "prp", out_dir: str | Path = "report", *, 
     experiments : optional list of :class:`Experiment` to run instead of the registry's
         scenarios of the robot (used by tests)
     animation : add a GIF of one run
-    jobs : processes that run the registry's scenarios (default: up to 2, one per core)
+    jobs : processes that run the registry's scenarios (default: up to 2, one per core; 1 for
+        ``quick``, whose short runs cost less than starting a worker)
     first : optional callable run here first, once the worker processes are starting (the
         demo prints its A1 tables meanwhile)
     """
@@ -455,7 +454,9 @@ def build_report(robot: str | Robot = "prp", out_dir: str | Path = "report", *, 
                 animator["thread"] = threading.Thread(target=animate, args=(subject,), daemon=True)
                 animator["thread"].start()
 
-    workers = max(1, min(2, os.cpu_count() or 1)) if jobs is None else jobs
+    # A quick report runs its few short scenarios in this process: starting a worker (its
+    # imports and kernels, ~10 s) would cost more than the runs it takes over.
+    workers = (1 if quick else max(1, min(2, os.cpu_count() or 1))) if jobs is None else jobs
     drawings, derivations = _run_all(planned, progress, workers, here, start_animation)
     bodies: dict[int, list[str]] = {}
     for exp in planned:
