@@ -419,3 +419,36 @@ def test_quick_report_runs_the_first_scenario_of_each_assignment():
     chosen = first_of_each_assignment(every)
     assert [e.assignment for e in chosen] == sorted({e.assignment for e in every})
     assert chosen[0].name == "a6_pd_online" and all(e.t_final <= 2.0 for e in chosen if e.t_final)
+
+
+def test_a_report_worker_leaves_when_its_parent_is_killed(tmp_path):
+    """kill -9 of the report leaves no worker running on (they would run for minutes)."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    # The worker is busy (as a report's are, for minutes) when its parent dies.
+    script = ("import os, threading, time\n"
+              "from multiprocessing import get_context\n"
+              "from concurrent.futures import ProcessPoolExecutor\n"
+              "from armlab.viz import report\n"
+              "pool = ProcessPoolExecutor(1, mp_context=get_context('spawn'),\n"
+              "                           initializer=report._init_worker, initargs=((), os.getpid()))\n"
+              "print(pool.submit(os.getpid).result(), flush=True)\n"
+              "pool.submit(time.sleep, 120)\n"
+              "threading.Event().wait()\n")
+    parent = subprocess.Popen([sys.executable, "-c", script], stdout=subprocess.PIPE, text=True,
+                              env={**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)})
+    worker = int(parent.stdout.readline())
+    parent.send_signal(signal.SIGKILL)
+    parent.wait()
+    for _ in range(100):
+        try:
+            os.kill(worker, 0)
+        except ProcessLookupError:
+            return
+        time.sleep(0.1)
+    os.kill(worker, signal.SIGKILL)
+    raise AssertionError("the worker outlived its killed parent by 10 s")

@@ -303,9 +303,18 @@ _PREPARED: tuple = ()  # a worker's events "this half of the shared kernels is c
 PREPARE_TIMEOUT = 600.0  # [s] a worker waits this long at most for the other's half
 
 
-def _init_worker(events) -> None:
+def _init_worker(events, parent: int) -> None:
     global _PREPARED
     _PREPARED = tuple(events)
+    # A report killed outright (kill -9) cannot shut its pool down: each worker leaves by
+    # itself once its parent is gone (it is then re-parented), instead of running on.
+    threading.Thread(target=_leave_when_orphaned, args=(parent,), daemon=True).start()
+
+
+def _leave_when_orphaned(parent: int, period: float = 1.0) -> None:
+    while os.getppid() == parent:
+        time.sleep(period)
+    os._exit(1)
 
 
 def _prepare(half: str, robots: list[Robot], index: int) -> None:
@@ -372,7 +381,7 @@ def _run_all(planned: list[Experiment], progress: Progress, workers: int, main_j
     halves = ("dynamics", "loop") if robots else ()
     events = [context.Event() for _ in halves]
     with ProcessPoolExecutor(max_workers=workers, mp_context=context, initializer=_init_worker,
-                             initargs=(events,)) as pool:
+                             initargs=(events, os.getpid())) as pool:
         # The two halves of the shared kernels first, one per worker; every scenario waits
         # for both (the cold compile of a report, ~2× faster than each worker compiling all).
         for index, half in enumerate(halves):
