@@ -70,18 +70,39 @@ def integer(value, file, where) -> int:
     return int(result)
 
 
+@functools.lru_cache(maxsize=64)
+def _robot_of_file(text: str, identity: tuple) -> Robot:
+    """The robot of ``text`` read once per version of its file (``identity``: the file's
+    resolved path, modification time and size), since a sweep builds thousands of scenarios
+    from the same robot files; a Robot is frozen, so the copies it hands out are one object."""
+    from armlab.robots import load_robot
+
+    return load_robot(text)
+
+
+def _load_robot(text: str) -> Robot:
+    from armlab.robots import bundled_robot_names, bundled_robot_path, load_robot
+
+    path = Path(text) if Path(text).suffix else bundled_robot_path(text)
+    try:
+        stat = path.stat()
+    except OSError:
+        return load_robot(text)  # says what is wrong with the name or file
+    if not Path(text).suffix and text not in bundled_robot_names():
+        return load_robot(text)
+    return _robot_of_file(text, (str(path.absolute()), stat.st_mtime_ns, stat.st_size))
+
+
 def robot(name, overrides, file, where) -> Robot:
     """The robot ``name`` (bundled name or file, relative to the scenario file) with its link
     masses overridden by ``overrides`` ({link: mass}, the ``<where>_link_mass`` key)."""
-    from armlab.robots import load_robot
-
     if not isinstance(name, str):
         raise ScenarioFileError(file, where, f"expected a robot name or file, got {name!r}")
     path = Path(name)
     if path.suffix and not path.is_absolute():
         path = Path(file).parent / path
     try:
-        loaded = load_robot(str(path) if path.suffix else name)
+        loaded = _load_robot(str(path) if path.suffix else name)
     except ArmlabError as error:
         raise ScenarioFileError(file, where, str(error)) from None
     if not isinstance(overrides, dict):

@@ -1,0 +1,171 @@
+"""One row of numbers per run: the scalar metrics of a sweep's table (``docs/sweeps.md``).
+
+The tracking error e(t) of a run is its controller's ``q_err`` signal (joint space), else its
+``x_err`` (task space), else ``p_des − p`` (the force controllers' position part); e_k is its
+component k, T_tail the last 5 % of the run, T_half its second half, h the logging step.
+
+====================  =====================================================================
+settling_time [s]     max_k of the time after which |e_k| stays within 2 % of max_t |e_k|
+                      (a component that is zero throughout settles at t₀); NaN if a component
+                      is still outside its band at the last sample
+overshoot [%]         max_k of 100 · max(0, max_t(−e_k(t) sgn e_k(0))) / |e_k(0)| over the
+                      components that start away from their reference (|e_k(0)| > 1e-9);
+                      NaN if none does (a tracking run that starts on its reference)
+steady_state_error    max_k |mean_{T_tail} e_k| (each component in its own unit)
+oscillation           max_k (max_{T_tail} e_k − min_{T_tail} e_k): what is left oscillating
+rms_error             sqrt(mean_t ‖e(t)‖²) over the whole run
+max_error             max_t max_k |e_k(t)|
+position_error [m]    ‖mean_{T_tail} e_p‖, e_p the position part of a task-space error
+peak_torque           max_t max_k |τ_k| (τ applied, after saturation) [N | N·m]
+peak_command          max_t max_k |τ_cmd,k| (the law's command before saturation; NaN if the
+                      run has no torque limit)
+saturation_time [s]   h · (number of samples at which some joint is at its torque limit)
+contact_force [N]     ‖mean_{T_tail} f_e‖, f_e the force part of the contact wrench h_e
+force_error [N]       ‖mean_{T_tail} (f_d − f_e)‖ over the components the reference f_d has
+param_error_rms       sqrt(mean_{T_half} (Y(π̂ − π))²): adaptive control's parameter error
+                      seen through the regressor (A8) [N·m]
+param_error_settling  settling time (as above) of Y(π̂ − π) [s]
+divergence_time [s]   time of the last sample before divergence; NaN if the run did not diverge
+====================  =====================================================================
+
+A diverged run keeps peak_torque, peak_command, saturation_time and divergence_time; its
+error and force metrics are NaN (a truncated run has no steady state).  Every metric a run has
+no signal for is NaN.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+TAIL = 0.05
+BAND = 0.02
+FORCE_REFERENCES = ("f_d", "f_des", "h_d", "h_des", "f_ref")
+"""Signal names of a desired contact force, as the interaction controllers log it."""
+
+METRICS: tuple[tuple[str, str], ...] = (
+    ("settling_time", "s"), ("overshoot", "%"), ("steady_state_error", ""), ("oscillation", ""),
+    ("rms_error", ""), ("max_error", ""), ("position_error", "m"), ("peak_torque", "N·m"),
+    ("peak_command", "N·m"), ("saturation_time", "s"), ("contact_force", "N"), ("force_error", "N"),
+    ("param_error_rms", "N·m"), ("param_error_settling", "s"), ("divergence_time", "s"),
+)
+"""(column, unit) of every metric, in table order (units of mixed joints: N or N·m, m or rad)."""
+
+METRIC_NAMES = tuple(name for name, _ in METRICS)
+
+
+def tail_slice(t: np.ndarray, fraction: float = TAIL) -> slice:
+    """The samples of the last ``fraction`` of the time span (at least one)."""
+    start = t[-1] - fraction * (t[-1] - t[0])
+    first = int(np.searchsorted(t, start, side="left"))
+    return slice(min(first, t.size - 1), None)
+
+
+def settling_time(t: np.ndarray, e: np.ndarray, band: float = BAND) -> float | None:
+    """Time [s] after which |e| stays within ``band`` × max|e|; None if it never does.
+
+    Returns ``t[0]`` for a signal that is zero throughout.
+    """
+    magnitude = np.abs(e)
+    peak = float(np.nanmax(magnitude))
+    if peak == 0.0:
+        return float(t[0])
+    outside = np.flatnonzero(magnitude > band * peak)
+    if outside.size == 0:
+        return float(t[0])
+    last = int(outside[-1])
+    if last == t.size - 1:
+        return None
+    return float(t[last + 1])
+
+
+def tracking_error(result) -> tuple[np.ndarray | None, np.ndarray | None]:
+    """(e, e_p): the run's tracking error (N, k) and its position part (N, 3) if it has one."""
+    signals = result.signals
+    if "q_err" in signals:
+        return np.asarray(signals["q_err"]), None
+    if "x_err" in signals:
+        e = np.asarray(signals["x_err"])
+        return e, e[:, :3]
+    if "p_des" in signals and "p" in signals:
+        e = np.asarray(signals["p_des"]) - np.asarray(signals["p"])
+        return e, e
+    return None, None
+
+
+def _error_metrics(t, e, e_p) -> dict:
+    tail = tail_slice(t)
+    settle = [settling_time(t, e[:, k]) for k in range(e.shape[1])]
+    start = e[0]
+    moving = np.abs(start) > 1e-9
+    overshoot = math.nan
+    if moving.any():
+        beyond = -e[:, moving] * np.sign(start[moving])
+        overshoot = float(100.0 * np.max(np.maximum(beyond.max(axis=0), 0.0) / np.abs(start[moving])))
+    return {
+        "settling_time": math.nan if any(s is None for s in settle) else float(max(settle)),
+        "overshoot": overshoot,
+        "steady_state_error": float(np.max(np.abs(e[tail].mean(axis=0)))),
+        "oscillation": float(np.max(e[tail].max(axis=0) - e[tail].min(axis=0))),
+        "rms_error": float(np.sqrt(np.mean(np.sum(e ** 2, axis=1)))),
+        "max_error": float(np.max(np.abs(e))),
+        "position_error": math.nan if e_p is None else float(np.linalg.norm(e_p[tail].mean(axis=0))),
+    }
+
+
+def _torque_metrics(result) -> dict:
+    tau = np.asarray(result.tau)
+    limit = result.meta.get("torque_limit")
+    limits = np.full(result.n, np.inf) if limit is None else np.broadcast_to(
+        np.asarray(limit, dtype=float), (result.n,))
+    step = float(result.t[1] - result.t[0]) if result.t.size > 1 else 0.0
+    at_limit = np.abs(tau) >= limits * (1.0 - 1e-9)
+    command = result.signals.get("tau_cmd")
+    return {"peak_torque": float(np.max(np.abs(tau))),
+            "peak_command": math.nan if command is None else float(np.max(np.abs(command))),
+            "saturation_time": step * int(np.count_nonzero(at_limit.any(axis=1)))}
+
+
+def _force_metrics(result, tail) -> dict:
+    h = result.signals.get("h_e")
+    if h is None:
+        return {}
+    force = np.asarray(h)[tail, :3].mean(axis=0)
+    values = {"contact_force": float(np.linalg.norm(force))}
+    ref = next((r for r in FORCE_REFERENCES if r in result.signals), None)
+    if ref is not None:
+        desired = np.asarray(result.signals[ref])[tail, :3].mean(axis=0)
+        values["force_error"] = float(np.linalg.norm(desired - force[:desired.size]))
+    return values
+
+
+def _adaptive_metrics(result, t) -> dict:
+    """Y(π̂ − π) of a controller that logs its regressor Y and estimates π̂ as its state."""
+    regressor = result.signals.get("Y")
+    truth = result.meta.get("true_parameters")
+    if regressor is None or truth is None or np.shape(result.z)[1] != np.shape(regressor)[1]:
+        return {}
+    mismatch = np.sum(np.asarray(regressor) * (np.asarray(result.z) - np.asarray(truth, dtype=float)), axis=1)
+    half = slice(t.size // 2, None)
+    settle = settling_time(t, mismatch)
+    return {"param_error_rms": float(np.sqrt(np.mean(mismatch[half] ** 2))),
+            "param_error_settling": math.nan if settle is None else settle}
+
+
+def measure(result) -> dict[str, float]:
+    """{metric: value} of every name in METRIC_NAMES for one run's :class:`SimulationResult`."""
+    values = dict.fromkeys(METRIC_NAMES, math.nan)
+    t = np.asarray(result.t)
+    if t.size == 0:
+        return values
+    values.update(_torque_metrics(result))
+    if result.status != "ok":
+        values["divergence_time"] = float(t[-1])
+        return values
+    e, e_p = tracking_error(result)
+    if e is not None and e.shape[1] > 0:
+        values.update(_error_metrics(t, e, e_p))
+    values.update(_force_metrics(result, tail_slice(t)))
+    values.update(_adaptive_metrics(result, t))
+    return values
