@@ -22,6 +22,7 @@ COMMANDS = (
     "scenarios",
     "run",
     "report",
+    "sweep",
 )
 """Modules of ``armlab.commands``, in the order ``armlab --help`` lists them."""
 

@@ -5,9 +5,10 @@ The tracking error e(t) of a run is its controller's ``q_err`` signal (joint spa
 component k, T_tail the last 5 % of the run, T_half its second half, h the logging step.
 
 ====================  =====================================================================
-settling_time [s]     max_k of the time after which |e_k| stays within 2 % of max_t |e_k|
-                      (a component that is zero throughout settles at t₀); NaN if a component
-                      is still outside its band at the last sample
+settling_time [s]     max_k of the time after which e_k stays within 2 % of its largest
+                      excursion from its final value e_k,∞ = mean_{T_tail} e_k:
+                      |e_k − e_k,∞| ≤ 0.02 max_t |e_k − e_k,∞| (a constant component settles
+                      at t₀); NaN if a component leaves its band during T_tail
 overshoot [%]         max_k of 100 · max(0, max_t(−e_k(t) sgn e_k(0))) / |e_k(0)| over the
                       components that start away from their reference (|e_k(0)| > 1e-9);
                       NaN if none does (a tracking run that starts on its reference)
@@ -24,7 +25,8 @@ contact_force [N]     ‖mean_{T_tail} f_e‖, f_e the force part of the contact
 force_error [N]       ‖mean_{T_tail} (f_d − f_e)‖ over the components the reference f_d has
 param_error_rms       sqrt(mean_{T_half} (Y(π̂ − π))²): adaptive control's parameter error
                       seen through the regressor (A8) [N·m]
-param_error_settling  settling time (as above) of Y(π̂ − π) [s]
+param_error_time [s]  the time after which |Y(π̂ − π)| stays below 5 % of its peak (NaN if
+                      it is above at the end)
 divergence_time [s]   time of the last sample before divergence; NaN if the run did not diverge
 ====================  =====================================================================
 
@@ -41,6 +43,7 @@ import numpy as np
 
 TAIL = 0.05
 BAND = 0.02
+PARAMETER_BAND = 0.05
 FORCE_REFERENCES = ("f_d", "f_des", "h_d", "h_des", "f_ref")
 """Signal names of a desired contact force, as the interaction controllers log it."""
 
@@ -48,7 +51,7 @@ METRICS: tuple[tuple[str, str], ...] = (
     ("settling_time", "s"), ("overshoot", "%"), ("steady_state_error", ""), ("oscillation", ""),
     ("rms_error", ""), ("max_error", ""), ("position_error", "m"), ("peak_torque", "N·m"),
     ("peak_command", "N·m"), ("saturation_time", "s"), ("contact_force", "N"), ("force_error", "N"),
-    ("param_error_rms", "N·m"), ("param_error_settling", "s"), ("divergence_time", "s"),
+    ("param_error_rms", "N·m"), ("param_error_time", "s"), ("divergence_time", "s"),
 )
 """(column, unit) of every metric, in table order (units of mixed joints: N or N·m, m or rad)."""
 
@@ -63,21 +66,36 @@ def tail_slice(t: np.ndarray, fraction: float = TAIL) -> slice:
 
 
 def settling_time(t: np.ndarray, e: np.ndarray, band: float = BAND) -> float | None:
-    """Time [s] after which |e| stays within ``band`` × max|e|; None if it never does.
-
-    Returns ``t[0]`` for a signal that is zero throughout.
-    """
-    magnitude = np.abs(e)
-    peak = float(np.nanmax(magnitude))
+    """Time [s] after which e stays within ``band`` of its excursion around its final value:
+    |e(t) − e_∞| ≤ band · max_t |e(t) − e_∞|, with e_∞ the mean of e over the last 5 % (so a
+    run that settles on a steady-state error settles).  ``t[0]`` for a constant signal; None
+    if a sample of the last 5 % is outside the band (still moving or oscillating at the end:
+    a settled signal stays settled for at least that long)."""
+    tail = tail_slice(t)
+    final = float(np.mean(e[tail]))
+    deviation = np.abs(e - final)
+    peak = float(np.nanmax(deviation))
     if peak == 0.0:
         return float(t[0])
-    outside = np.flatnonzero(magnitude > band * peak)
+    outside = np.flatnonzero(deviation > band * peak)
     if outside.size == 0:
         return float(t[0])
     last = int(outside[-1])
-    if last == t.size - 1:
+    if last >= tail.start:
         return None
     return float(t[last + 1])
+
+
+def convergence_time(t: np.ndarray, e: np.ndarray, band: float) -> float | None:
+    """Time [s] after which |e| stays below ``band`` · max_t |e| (convergence to zero); None if
+    the last sample is above it."""
+    magnitude = np.abs(e)
+    peak = float(np.nanmax(magnitude))
+    outside = np.flatnonzero(magnitude > band * peak) if peak > 0 else np.array([], dtype=int)
+    if outside.size == 0:
+        return float(t[0])
+    last = int(outside[-1])
+    return None if last == t.size - 1 else float(t[last + 1])
 
 
 def tracking_error(result) -> tuple[np.ndarray | None, np.ndarray | None]:
@@ -148,9 +166,9 @@ def _adaptive_metrics(result, t) -> dict:
         return {}
     mismatch = np.sum(np.asarray(regressor) * (np.asarray(result.z) - np.asarray(truth, dtype=float)), axis=1)
     half = slice(t.size // 2, None)
-    settle = settling_time(t, mismatch)
+    converged = convergence_time(t, mismatch, PARAMETER_BAND)
     return {"param_error_rms": float(np.sqrt(np.mean(mismatch[half] ** 2))),
-            "param_error_settling": math.nan if settle is None else settle}
+            "param_error_time": math.nan if converged is None else converged}
 
 
 def measure(result) -> dict[str, float]:
