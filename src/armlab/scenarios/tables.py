@@ -80,16 +80,22 @@ def _robot_of_file(text: str, identity: tuple) -> Robot:
     return load_robot(text)
 
 
-def _load_robot(text: str) -> Robot:
-    from armlab.robots import bundled_robot_names, bundled_robot_path, load_robot
+@functools.cache
+def _bundled_robots() -> dict[str, Path]:
+    """{name: file} of the robots shipped in the package (fixed while it is installed)."""
+    from armlab.robots import bundled_robot_names, bundled_robot_path
 
-    path = Path(text) if Path(text).suffix else bundled_robot_path(text)
+    return {name: bundled_robot_path(name) for name in bundled_robot_names()}
+
+
+def _load_robot(text: str) -> Robot:
+    from armlab.robots import load_robot
+
+    path = Path(text) if Path(text).suffix else _bundled_robots().get(text)
     try:
         stat = path.stat()
-    except OSError:
+    except (OSError, AttributeError):
         return load_robot(text)  # says what is wrong with the name or file
-    if not Path(text).suffix and text not in bundled_robot_names():
-        return load_robot(text)
     return _robot_of_file(text, (str(path.absolute()), stat.st_mtime_ns, stat.st_size))
 
 

@@ -8,7 +8,8 @@ component k, T_tail the last 5 % of the run, T_half its second half, h the loggi
 settling_time [s]     max_k of the time after which e_k stays within 2 % of its largest
                       excursion from its final value e_k,∞ = mean_{T_tail} e_k:
                       |e_k − e_k,∞| ≤ 0.02 max_t |e_k − e_k,∞| (a constant component settles
-                      at t₀); NaN if a component leaves its band during T_tail
+                      at t₀; deviations below 1e-9 are round-off); NaN if a component
+                      leaves its band during T_tail
 overshoot [%]         max_k of 100 · max(0, max_t(−e_k(t) sgn e_k(0))) / |e_k(0)| over the
                       components that start away from their reference (|e_k(0)| > 1e-9);
                       NaN if none does (a tracking run that starts on its reference)
@@ -44,6 +45,9 @@ import numpy as np
 TAIL = 0.05
 BAND = 0.02
 PARAMETER_BAND = 0.05
+FLOOR = 1e-9
+"""Deviations below this (in the signal's unit, m or rad) are round-off: a component that
+moves less than that is constant (an orientation error of 1e-13 rad does not 'settle')."""
 FORCE_REFERENCES = ("f_d", "f_des", "h_d", "h_des", "f_ref")
 """Signal names of a desired contact force, as the interaction controllers log it."""
 
@@ -70,14 +74,15 @@ def settling_time(t: np.ndarray, e: np.ndarray, band: float = BAND) -> float | N
     |e(t) − e_∞| ≤ band · max_t |e(t) − e_∞|, with e_∞ the mean of e over the last 5 % (so a
     run that settles on a steady-state error settles).  ``t[0]`` for a constant signal; None
     if a sample of the last 5 % is outside the band (still moving or oscillating at the end:
-    a settled signal stays settled for at least that long)."""
+    a settled signal stays settled for at least that long).  Deviations below ``FLOOR`` count
+    as none."""
     tail = tail_slice(t)
     final = float(np.mean(e[tail]))
     deviation = np.abs(e - final)
     peak = float(np.nanmax(deviation))
-    if peak == 0.0:
+    if peak <= FLOOR:
         return float(t[0])
-    outside = np.flatnonzero(deviation > band * peak)
+    outside = np.flatnonzero(deviation > max(band * peak, FLOOR))
     if outside.size == 0:
         return float(t[0])
     last = int(outside[-1])

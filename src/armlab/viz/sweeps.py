@@ -109,6 +109,19 @@ def _title(spec, frame, extra=""):
     return f"{spec.title}{extra}\n{', '.join(notes)}"
 
 
+def _log_x(ax, values):
+    """A log x axis; symmetric-log when the values include 0 (K_I = 0: no integral action)."""
+    positive = values[values > 0]
+    if positive.size == 0:
+        return
+    if (values <= 0).any():
+        ax.set_xscale("symlog", linthresh=float(positive.min()))
+    else:
+        ax.set_xscale("log")
+        if positive.max() / positive.min() < 100:
+            ax.xaxis.set_major_formatter(ScalarFormatter())
+
+
 def _line(spec, frame, plot):
     x, metrics, by = plot["x"], plot["y"], plot.get("by")
     fig = _figure(len(metrics))
@@ -122,15 +135,15 @@ def _line(spec, frame, plot):
             ax.plot(ok[x], ok[metric], marker="o", markersize=3, label=label)
             bad = group[group["status"] == "diverged"]
             if len(bad):
-                ax.plot(bad[x], np.zeros(len(bad)) if bad[metric].isna().all() else bad[metric], "x",
-                        color="tab:red", label="diverged" if metric == metrics[0] else None)
+                # A diverged run has no steady state: a cross at the bottom of the panel.
+                ax.plot(bad[x], np.full(len(bad), 0.03), "x", color="tab:red", transform=ax.get_xaxis_transform(),
+                        label="diverged" if metric == metrics[0] else None)
                 ax.axvspan(bad[x].min(), bad[x].max(), color="tab:red", alpha=0.08)
         ax.set_ylabel(_label(metric))
         ax.grid(True, alpha=0.3)
         if plot.get("logx"):
-            ax.set_xscale("log")
-            ax.xaxis.set_major_formatter(ScalarFormatter())
-        if plot.get("logy") and (group[metric] > 0).any():
+            _log_x(ax, frame[x].to_numpy(dtype=float))
+        if plot.get("logy") and (frame[metric] > 0).any():
             ax.set_yscale("log")
     axes[-1].set_xlabel(x)
     if by is not None or (frame["status"] == "diverged").any():
