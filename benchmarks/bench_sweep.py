@@ -139,7 +139,9 @@ def timed(spec, folder, **executor):
     # The steady rate: the runs after the first chunk file, over the time after it (without
     # the start of a cluster and the first loading of the compiled code in each worker).
     chunks, at = memory.first
-    steady = (spec.n_runs - chunks * spec.chunk_size) / (end - at) if end > at and chunks < spec.n_chunks else math.nan
+    steady = math.nan
+    if end > at and chunks < spec.n_chunks:
+        steady = (spec.n_runs - chunks * spec.chunk_size) / (end - at)
     return seconds, steady, memory
 
 
@@ -162,7 +164,8 @@ def main():
         for name, executor in executors:
             seconds, steady, memory = timed(spec, folder, **executor)
             rows.append((name, RUNS, seconds, RUNS / seconds, steady, memory))
-    print(f"\nSweep: A7 step of {T_FINAL:g} s (100 RK4 steps), random ω_n, metrics and Parquet, {cores} cores")
+    print(f"\nSweep: A7 step of {T_FINAL:g} s (100 RK4 steps), random ω_n, metrics and Parquet, "
+          f"{cores} cores")
     print("  per core = steady rate / (cores × one thread's steady rate); steady: after the first chunk")
     print(f"  {'executor':<22}{'runs':>8}{'wall [s]':>10}{'runs/s':>9}{'steady':>9}{'per core':>10}"
           f"{'driver MB at 10 %':>19}{'at 100 %':>10}")
@@ -175,7 +178,8 @@ def main():
         growth = memory.at(1.0) - memory.at(0.1)
         print(f"  {name}: {per_core:.2f} per core (target ≥ {TARGET}: "
               f"{'met' if per_core >= TARGET else 'NOT met'}); driver memory "
-              f"{growth:+.0f} MB from 10 % to 100 % of the runs ({'flat' if growth < FLAT_MB else 'NOT flat'})")
+              f"{growth:+.0f} MB from 10 % to 100 % of the runs "
+              f"({'flat' if growth < FLAT_MB else 'NOT flat'})")
 
 
 if __name__ == "__main__":

@@ -79,7 +79,8 @@ d = { geomspace = [1, 100, 2] }
     # the grid's last axis varies fastest after the zip; the zip varies its axes together
     assert [(r["a"], r["b"], r["c"], r["d"]) for r in rows[:4]] == [
         (1.0, 0.0, 10.0, 1.0), (1.0, 0.0, 20.0, 100.0), (1.0, 0.5, 10.0, 1.0), (1.0, 0.5, 20.0, 100.0)]
-    assert {(r["a"], r["b"], r["c"]) for r in rows} == {(a, b, c) for a in (1, 2) for b in (0, .5, 1) for c in (10, 20)}
+    expected = {(a, b, c) for a in (1, 2) for b in (0, .5, 1) for c in (10, 20)}
+    assert {(r["a"], r["b"], r["c"]) for r in rows} == expected
     assert all(r["controller.kp"] == r["a"] * 100 + r["b"] * 10 + r["c"] for r in rows)
     _, table = spec.table(5)
     assert table["controller"]["kp"] == rows[5]["controller.kp"]
@@ -124,9 +125,11 @@ BAD = [
      "3 elements"),
     ('scenario = "a7_id_high_gain"\n[grid]\n"controller.model_link_mass.link9" = { values = [1] }',
      "grid.controller.model_link_mass.link9", "no such field"),
-    ('scenario = "a7_id_high_gain"\n[zip]\na = { values = [1, 2] }\nb = { values = [1] }', "zip", "one length"),
+    ('scenario = "a7_id_high_gain"\n[zip]\na = { values = [1, 2] }\nb = { values = [1] }', "zip",
+     "one length"),
     ('scenario = "a7_id_high_gain"\n[random]\na = { uniform = [1, 0] }\n', "runs", "missing"),
-    ('scenario = "a7_id_high_gain"\nruns = 3\n[random]\na = { uniform = [1, 0] }', "random.a.uniform", "a < b"),
+    ('scenario = "a7_id_high_gain"\nruns = 3\n[random]\na = { uniform = [1, 0] }', "random.a.uniform",
+     "a < b"),
     ('scenario = "a7_id_high_gain"\nruns = 3\n[random]\na = { log_uniform = [0, 1] }', "random.a.log_uniform",
      "0 < a"),
     ('scenario = "a7_id_high_gain"\nruns = 3', "runs", "[random]"),
@@ -332,7 +335,8 @@ def test_overshoot_of_an_underdamped_step_matches_the_textbook():
     t = np.arange(0, 10.0, h)
     e = 0.5 * np.exp(-sigma * t) * (np.cos(wd * t) + sigma / wd * np.sin(wd * t))  # step of 0.5
     values = measure(fake_result(t, e))
-    assert values["overshoot"] == pytest.approx(100 * math.exp(-zeta * math.pi / math.sqrt(1 - zeta**2)), rel=1e-4)
+    assert values["overshoot"] == pytest.approx(100 * math.exp(-zeta * math.pi / math.sqrt(1 - zeta**2)),
+                                                rel=1e-4)
     assert values["max_error"] == pytest.approx(0.5)
     assert values["rms_error"] == pytest.approx(math.sqrt(np.mean(e**2)))
 
@@ -352,3 +356,10 @@ def test_diverged_runs_keep_only_their_torque_and_divergence_time():
     values = measure(fake_result(t, np.ones(t.size), tau=np.full(t.size, 3.0), status="diverged"))
     assert values["divergence_time"] == t[-1] and values["peak_torque"] == 3.0
     assert math.isnan(values["steady_state_error"]) and math.isnan(values["settling_time"])
+
+
+def test_benchmark_executors_write_the_same_table():
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+    import bench_sweep
+
+    assert bench_sweep.check_agreement(runs=6, dask=False) == ["1 thread", "threads"]

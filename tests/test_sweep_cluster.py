@@ -56,7 +56,8 @@ def test_dask_table_equals_the_thread_pool_table(tmp_path, cluster):
     threads = sweep(spec_of(tmp_path, "threads", chunk=5), tmp_path / "threads", threads=2)
     dask = sweep(spec_of(tmp_path, "dask", chunk=2), tmp_path / "dask", scheduler=cluster.scheduler_address)
     assert dask.executor.startswith("dask ") and dask.counts == threads.counts == {"ok": 12}
-    pd.testing.assert_frame_equal(read_results(dask.folder).to_pandas(), read_results(threads.folder).to_pandas(),
+    pd.testing.assert_frame_equal(read_results(dask.folder).to_pandas(),
+                                  read_results(threads.folder).to_pandas(),
                                   check_exact=True)
 
 
@@ -87,3 +88,12 @@ def test_a_worker_killed_mid_sweep_loses_no_run(tmp_path, cluster):
     table = read_results(out).to_pandas()
     assert list(table["run"]) == list(range(spec.n_runs))
     pd.testing.assert_frame_equal(table, reference, check_exact=True)
+
+
+def test_benchmark_agreement_includes_dask():
+    import sys
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+    import bench_sweep
+
+    assert bench_sweep.check_agreement(runs=4) == ["1 thread", "threads", "dask"]

@@ -11,6 +11,7 @@ Each class is also the builtin a Python programmer would catch for the same faul
     │   │   ├── ScenarioFileError          scenario TOML files
     │   │   └── SweepFileError             sweep TOML files
     │   ├── SweepStoreError                a sweep's output folder (``folder: reason``)
+    │   ├── FieldPathError                 a sweep's field path that does not fit its scenario
     │   ├── ResultFileError                result files (``file: reason``)
     │   ├── SpecError                      parameters that cannot define the thing asked for
     │   │   ├── ControllerSpecError        gains, options, models of a controller
@@ -60,6 +61,10 @@ class ScenarioFileError(FileFieldError):
 
 class SweepFileError(FileFieldError):
     """A sweep file that cannot define a sweep (its scenario, axes, paths or settings)."""
+
+
+class FieldPathError(InputError):
+    """A sweep's field path that does not fit its scenario's tables (the message says why)."""
 
 
 class SweepStoreError(InputError):

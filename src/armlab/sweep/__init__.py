@@ -11,5 +11,6 @@ from armlab.sweep.runner import SweepOutcome, run_chunk, run_one, sweep
 from armlab.sweep.spec import SweepSpec, bundled_sweep_names, load_sweep, load_sweep_file, sweep_path
 from armlab.sweep.store import read_results
 
-__all__ = ["SweepOutcome", "SweepSpec", "bundled_sweep_names", "load_sweep", "load_sweep_file", "read_results",
+__all__ = ["SweepOutcome", "SweepSpec", "bundled_sweep_names", "load_sweep", "load_sweep_file",
+           "read_results",
            "run_chunk", "run_one", "sweep", "sweep_path"]

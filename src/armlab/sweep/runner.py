@@ -29,7 +29,7 @@ from dataclasses import dataclass
 
 from armlab.errors import ArmlabError, SweepFileError
 from armlab.sweep.metrics import METRIC_NAMES, measure
-from armlab.sweep.spec import PathProblem, SweepSpec, load_sweep
+from armlab.sweep.spec import SweepSpec, load_sweep
 from armlab.sweep.store import SweepStore, read_results
 
 
@@ -48,7 +48,7 @@ def run_one(spec: SweepSpec, index: int) -> dict:
         result = scenario_from_table(table, spec.scenario_file).run()
     except SimulationDiverged as error:
         result = error.result
-    except (ArmlabError, PathProblem, ValueError, ArithmeticError) as error:
+    except (ArmlabError, ValueError, ArithmeticError) as error:
         return {**row, "status": "invalid", "diagnosis": " ".join(str(error).split())}
     row.update(measure(result))
     row["status"], row["diagnosis"] = result.status, result.diagnosis
@@ -191,7 +191,8 @@ def sweep(spec, out, *, threads: int | None = None, workers: int | None = None,
         scheduler, workers = cluster.get("scheduler"), cluster.get("workers")
     for name, value in (("threads", threads), ("workers", workers)):
         if value is not None and (isinstance(value, bool) or not isinstance(value, int) or value < 1):
-            raise SweepFileError(spec.source, f"cluster.{name}", f"expected a positive integer, got {value!r}")
+            raise SweepFileError(spec.source, f"cluster.{name}",
+                                 f"expected a positive integer, got {value!r}")
     if scheduler is not None and not isinstance(scheduler, str):
         raise SweepFileError(spec.source, "cluster.scheduler", f"expected an address, got {scheduler!r}")
     store = SweepStore(out, spec)
@@ -205,7 +206,8 @@ def sweep(spec, out, *, threads: int | None = None, workers: int | None = None,
         try:
             if log is not None:
                 print(f"{spec.name}: {spec.n_runs} runs in {spec.n_chunks} chunks on {executor} "
-                      f"({sum(client.nthreads().values())} worker threads); dashboard {client.dashboard_link}",
+                      f"({sum(client.nthreads().values())} worker threads); "
+                      f"dashboard {client.dashboard_link}",
                       file=log, flush=True)
             bar = _progress(spec.n_runs, done_runs, spec.name, progress)
             try:
@@ -219,7 +221,8 @@ def sweep(spec, out, *, threads: int | None = None, workers: int | None = None,
     else:
         executor = f"{threads or os.cpu_count()} local threads"
         if log is not None:
-            print(f"{spec.name}: {spec.n_runs} runs in {spec.n_chunks} chunks on {executor}", file=log, flush=True)
+            print(f"{spec.name}: {spec.n_runs} runs in {spec.n_chunks} chunks on {executor}", file=log,
+                  flush=True)
         bar = _progress(spec.n_runs, done_runs, spec.name, progress)
         try:
             counts = _local(spec, store, pending, threads, bar)

@@ -53,7 +53,7 @@ from pathlib import Path
 
 import numpy as np
 
-from armlab.errors import ArmlabError, ScenarioFileError, SweepFileError
+from armlab.errors import ArmlabError, FieldPathError, ScenarioFileError, SweepFileError
 from armlab.model.toml_io import evaluate_expression
 
 TOP_KEYS = {"title", "description", "scenario", "seed", "runs", "chunk_size", "set", "grid", "zip",
@@ -127,7 +127,8 @@ class SweepSpec:
     def fingerprint(self) -> str:
         """A digest of everything that decides the runs and their chunks (resume checks it)."""
         text = json.dumps([self.scenario_table, self.seed, self.draws, self.chunk_size, self.fixed,
-                           [(a.key, a.values, a.kind, a.bounds) for a in self.grid + self.zipped + self.random],
+                           [(a.key, a.values, a.kind, a.bounds)
+                            for a in self.grid + self.zipped + self.random],
                            self.derived, [len(self.grid), len(self.zipped)]], sort_keys=True, default=str)
         return hashlib.sha256(text.encode()).hexdigest()[:16]
 
@@ -198,10 +199,6 @@ def _segments(path: str) -> list[str | int]:
     return parts
 
 
-class PathProblem(ValueError):
-    """A field path that does not fit the scenario's tables (the message says why)."""
-
-
 def assign(data: dict, path: str, value, copied: set[int] | None = None) -> None:
     """Write ``value`` at ``path`` into the nested tables ``data``; missing tables are made
     (``controller.model_link_mass``), the final key is left to the scenario loader to judge.
@@ -225,26 +222,26 @@ def assign(data: dict, path: str, value, copied: set[int] | None = None) -> None
         where = ".".join(str(p) for p in parts[:depth + 1])
         if isinstance(part, int):
             if not isinstance(node, list) or part >= len(node):
-                raise PathProblem(f"{where}: no element {part}")
+                raise FieldPathError(f"{where}: no element {part}")
             child = node[part]
         else:
             if not isinstance(node, dict):
-                raise PathProblem(f"{where}: is not inside a table")
+                raise FieldPathError(f"{where}: is not inside a table")
             if part not in node:
                 if isinstance(following, int):
-                    raise PathProblem(f"{where}: the scenario has no such array")
+                    raise FieldPathError(f"{where}: the scenario has no such array")
                 node[part] = {}
             child = node[part]
         if isinstance(following, int) and not isinstance(child, list):
-            raise PathProblem(f"{where}: is {child!r} in the scenario, not an array "
+            raise FieldPathError(f"{where}: is {child!r} in the scenario, not an array "
                               "(sweep the whole field)")
         if isinstance(following, str) and not isinstance(child, dict):
-            raise PathProblem(f"{where}: is {child!r} in the scenario, not a table")
+            raise FieldPathError(f"{where}: is {child!r} in the scenario, not a table")
         node = private(node, part, child)
     last = parts[-1]
     if isinstance(last, int):
         if last >= len(node):
-            raise PathProblem(f"{path}: the array has {len(node)} elements")
+            raise FieldPathError(f"{path}: the array has {len(node)} elements")
         node[last] = value
     else:
         node[last] = value
@@ -285,7 +282,8 @@ def _quoting_hint(spec) -> str:
 
 def _grid_axis(key, spec, file, where) -> Axis:
     if not isinstance(spec, dict) or len(spec) != 1 or next(iter(spec)) not in GRID_KINDS:
-        raise SweepFileError(file, where, f"expected one of {{ {' | '.join(f'{k} = […]' for k in GRID_KINDS)} }}"
+        raise SweepFileError(file, where,
+                             f"expected one of {{ {' | '.join(f'{k} = […]' for k in GRID_KINDS)} }}"
                               + _quoting_hint(spec))
     kind, raw = next(iter(spec.items()))
     if not isinstance(raw, list) or not raw:
@@ -318,7 +316,8 @@ def _evaluates(text: str) -> bool:
 
 def _random_axis(key, spec, file, where) -> Axis:
     if not isinstance(spec, dict) or len(spec) != 1 or next(iter(spec)) not in RANDOM_KINDS:
-        raise SweepFileError(file, where, f"expected one of {{ {' | '.join(f'{k} = [a, b]' for k in RANDOM_KINDS)} }}"
+        raise SweepFileError(file, where,
+                             f"expected one of {{ {' | '.join(f'{k} = [a, b]' for k in RANDOM_KINDS)} }}"
                               + _quoting_hint(spec))
     kind, raw = next(iter(spec.items()))
     if not isinstance(raw, list) or len(raw) != 2:
@@ -423,10 +422,12 @@ def load_sweep_file(path) -> SweepSpec:
     if not isinstance(plots, list) or not all(isinstance(p, dict) for p in plots):
         raise SweepFileError(path, "plot", "expected an array of tables [[plot]]")
     cluster = _table(data, "cluster", path)
-    spec = SweepSpec(name=path.stem, title=data.get("title", path.stem), description=data.get("description", ""),
+    spec = SweepSpec(name=path.stem, title=data.get("title", path.stem),
+                     description=data.get("description", ""),
                      source=str(path), scenario_file=str(scenario_file), scenario_table=scenario_table,
                      seed=seed, draws=draws, chunk_size=chunk_size, fixed=fixed, grid=grid, zipped=zipped,
-                     random=random, derived=tuple(derived), plots=tuple(plots), cluster=tuple(cluster.items()))
+                     random=random, derived=tuple(derived), plots=tuple(plots),
+                     cluster=tuple(cluster.items()))
     _check_against_scenario(spec, path)
     return spec
 
@@ -448,7 +449,8 @@ def _check_against_scenario(spec: SweepSpec, path: Path) -> None:
         try:
             evaluate_expression(expression, dict.fromkeys(variables, 1.0))
         except (ValueError, SyntaxError) as error:
-            raise SweepFileError(path, f"derived.{key}", f"cannot evaluate {expression!r} ({error})") from None
+            raise SweepFileError(path, f"derived.{key}",
+                                 f"cannot evaluate {expression!r} ({error})") from None
         except ArithmeticError:
             pass
     where = {a.key: f"grid.{a.key}" for a in spec.grid} | {a.key: f"zip.{a.key}" for a in spec.zipped}
@@ -458,7 +460,7 @@ def _check_against_scenario(spec: SweepSpec, path: Path) -> None:
         if _is_field(key):
             try:
                 assign(copy.deepcopy(spec.scenario_table), key, 0.0)
-            except PathProblem as error:
+            except FieldPathError as error:
                 raise SweepFileError(path, label, f"does not fit {spec.scenario_file}: {error}") from None
     if spec.n_runs == 0:
         raise SweepFileError(path, "grid", "no runs (an axis is empty)")
@@ -469,8 +471,9 @@ def _check_against_scenario(spec: SweepSpec, path: Path) -> None:
         for key, label in where.items():
             if _is_field(key) and error.reason.startswith(("unknown key", "no such link")) and (
                     error.field == key or key.startswith(error.field + ".")):
-                raise SweepFileError(path, label, f"the scenario has no such field ({error.reason})") from None
-    except (ArmlabError, PathProblem):
+                raise SweepFileError(path, label,
+                                     f"the scenario has no such field ({error.reason})") from None
+    except (ArmlabError, FieldPathError):
         pass
 
 

@@ -36,7 +36,8 @@ def _pyarrow():
         import pyarrow
         import pyarrow.parquet
     except ImportError:
-        raise SweepStoreError("a sweep writes Parquet: install pyarrow (pip install 'armlab[sweep]')") from None
+        raise SweepStoreError("a sweep writes Parquet: install pyarrow "
+                              "(pip install 'armlab[sweep]')") from None
     return pyarrow, pyarrow.parquet
 
 

@@ -43,7 +43,8 @@ def check_plots(spec) -> list[dict]:
         where = f"plot[{i}]"
         unknown = sorted(set(table) - KEYS)
         if unknown:
-            raise SweepFileError(spec.source, f"{where}.{unknown[0]}", f"unknown key (use {', '.join(sorted(KEYS))})")
+            raise SweepFileError(spec.source, f"{where}.{unknown[0]}",
+                                 f"unknown key (use {', '.join(sorted(KEYS))})")
         kind = table.get("kind")
         if kind not in KINDS:
             raise SweepFileError(spec.source, f"{where}.kind", f"{kind!r} is not one of {', '.join(KINDS)}")
@@ -56,7 +57,8 @@ def check_plots(spec) -> list[dict]:
         for key in needed:
             if key not in table:
                 raise SweepFileError(spec.source, f"{where}.{key}", "missing")
-        names = [("y", name) for name in plot["y"]] + [(k, table[k]) for k in ("x", "by", "metric") if k in table]
+        names = [("y", name) for name in plot["y"]]
+        names += [(k, table[k]) for k in ("x", "by", "metric") if k in table]
         if kind == "heatmap":
             plot["y"] = [table["y"]] if isinstance(table["y"], str) else table["y"]
         for key, name in names:
@@ -130,13 +132,15 @@ def _line(spec, frame, plot):
     for ax, metric in zip(axes, metrics, strict=True):
         for value, group in groups:
             group = group.sort_values(x)
-            label = None if by is None else f"{by} = {value:g}" if isinstance(value, float) else f"{by} = {value}"
+            label = None if by is None else f"{by} = {value:g}" if isinstance(value, float) else (
+                f"{by} = {value}")
             ok = group[group["status"] == "ok"]
             ax.plot(ok[x], ok[metric], marker="o", markersize=3, label=label)
             bad = group[group["status"] == "diverged"]
             if len(bad):
                 # A diverged run has no steady state: a cross at the bottom of the panel.
-                ax.plot(bad[x], np.full(len(bad), 0.03), "x", color="tab:red", transform=ax.get_xaxis_transform(),
+                ax.plot(bad[x], np.full(len(bad), 0.03), "x", color="tab:red",
+                        transform=ax.get_xaxis_transform(),
                         label="diverged" if metric == metrics[0] else None)
                 ax.axvspan(bad[x].min(), bad[x].max(), color="tab:red", alpha=0.08)
         ax.set_ylabel(_label(metric))
@@ -165,7 +169,7 @@ def _heatmap(spec, frame, plot):
     fig = _figure(1, height=4.2)
     ax = fig.subplots()
     # An axis with a value such as inf (no torque limit) is drawn by position, labelled.
-    px, py = (values if np.isfinite(values).all() else np.arange(values.size, dtype=float) for values in (xs, ys))
+    px, py = (v if np.isfinite(v).all() else np.arange(v.size, dtype=float) for v in (xs, ys))
     mesh = ax.pcolormesh(px, py, np.ma.masked_invalid(grid), shading="nearest", cmap="viridis")
     for values, positions, set_ticks in ((xs, px, ax.set_xticks), (ys, py, ax.set_yticks)):
         if positions is not values:
@@ -195,7 +199,8 @@ def _histogram(spec, frame, plot):
     for ax, metric in zip(axes, metrics, strict=True):
         values = ok[metric].dropna().to_numpy()
         if values.size:
-            ax.hist(values, bins=max(5, min(50, int(math.sqrt(values.size)) * 2)), color="tab:blue", alpha=0.8)
+            ax.hist(values, bins=max(5, min(50, int(math.sqrt(values.size)) * 2)), color="tab:blue",
+                    alpha=0.8)
             for q, style in ((0.5, "-"), (0.95, "--")):
                 ax.axvline(np.quantile(values, q), color="k", linestyle=style, linewidth=1,
                            label=f"{int(q * 100)} %: {np.quantile(values, q):.3g}")
