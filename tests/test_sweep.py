@@ -363,3 +363,11 @@ def test_benchmark_executors_write_the_same_table():
     import bench_sweep
 
     assert bench_sweep.check_agreement(runs=6, dask=False) == ["1 thread", "threads"]
+
+
+def test_benchmark_mujoco_rollout_agrees_with_the_sweep_runs():
+    pytest.importorskip("mujoco", reason="mujoco is not installed (the 'bench' extra)")
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+    import bench_sweep
+
+    assert bench_sweep.check_mujoco(runs=2) < 1e-9
