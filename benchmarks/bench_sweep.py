@@ -8,6 +8,7 @@ each run, every run measured and written to Parquet as ``armlab sweep`` does.
 * **one thread**: :data:`SINGLE_RUNS` runs on ``threads=1`` (the steady per-run rate; a
   tenth of the sweep keeps ``make bench`` within minutes);
 * **threads**: :data:`RUNS` runs on every core (``threads=None``);
+* **processes**: :data:`RUNS` runs on one spawned local process per core (``processes=``);
 * **Dask**: :data:`RUNS` runs on a local ``dask.distributed`` cluster of one single-threaded
   worker process per core (skipped with a message without the ``cluster`` extra);
 * **MuJoCo** (the ``bench`` extra; skipped with a message without it): the same runs as
@@ -243,7 +244,7 @@ def main():
         spec = spec_of(folder, RUNS, chunk=min(200, max(1, RUNS // 20)), name="all")
         one, steady_1, _ = timed(single_spec, folder, threads=1)
         rows = [("1 thread", SINGLE_RUNS, one, SINGLE_RUNS / one, steady_1, None)]
-        executors = [(f"{cores} threads", dict(threads=None))]
+        executors = [(f"{cores} threads", dict(threads=None)), (f"{cores} processes", dict(processes=cores))]
         if dask_available():
             executors.append((f"Dask, {cores} processes", dict(workers=cores)))
         else:

@@ -139,6 +139,8 @@ BAD = [
     ('scenario = "a7_id_high_gain"\nseed = -1', "seed", "integer"),
     ('scenario = "a7_id_high_gain"\n[grid]\n"a b" = { values = [1] }', "grid.a b", "field path"),
     ("scenario = [", "toml", ""),
+    ('scenario = "a7_id_high_gain"\n[cluster]\nnodes = 3', "cluster.nodes", "unknown key"),
+    ('scenario = "a7_id_high_gain"\n[cluster]\nworkers = 0', "cluster.workers", "integer"),
 ]
 
 
@@ -234,11 +236,13 @@ scenario = "a11_compliance"
     assert math.isnan(table["steady_state_error"][1]) and table["peak_torque"][1] > 0
 
 
-def test_table_is_identical_whatever_the_threads_and_chunks(tmp_path):
+def test_table_is_identical_whatever_the_threads_processes_and_chunks(tmp_path):
     reference = frame(sweep(small(tmp_path, "chunk_size = 1"), tmp_path / "a", threads=1).folder)
-    for threads, chunk in ((2, 1), (2, 4), (1, 6)):
-        spec = small(tmp_path, f"chunk_size = {chunk}", name=f"s{threads}{chunk}.toml")
-        other = frame(sweep(spec, tmp_path / f"o{threads}{chunk}", threads=threads).folder)
+    for executor, chunk in ((dict(threads=2), 1), (dict(threads=2), 4), (dict(threads=1), 6),
+                            (dict(processes=2), 2)):
+        name = f"{'-'.join(f'{k}{v}' for k, v in executor.items())}-{chunk}"
+        spec = small(tmp_path, f"chunk_size = {chunk}", name=f"{name}.toml")
+        other = frame(sweep(spec, tmp_path / name, **executor).folder)
         pd.testing.assert_frame_equal(other, reference, check_exact=True)
     assert list(reference["run"]) == list(range(6))
 

@@ -10,12 +10,15 @@ def register(subparsers) -> None:
         "sweep", help="run a sweep or Monte Carlo file over a scenario (see docs/sweeps.md)",
         description="Run every run of the sweep FILE (a bundled sweep name or a sweep .toml file) and "
                     "write one row per run (parameters, status, metrics) to the Parquet dataset "
-                    "DIR/runs.  Runs on local threads by default, on a Dask cluster with --scheduler "
+                    "DIR/runs.  Runs on local threads by default (local processes with --processes), "
+                    "on a Dask cluster with --scheduler "
                     "or --workers.  An interrupted sweep started again with the same --out resumes "
                     "where it stopped.")
     parser.add_argument("sweep", metavar="FILE", nargs="?", help="bundled sweep name or sweep .toml file")
     parser.add_argument("--out", metavar="DIR", help="output folder (default: sweeps/<name>)")
     parser.add_argument("--threads", type=int, metavar="N", help="local threads (default: every core)")
+    parser.add_argument("--processes", type=int, metavar="N",
+                        help="N local worker processes instead of threads (for many short runs)")
     parser.add_argument("--workers", type=int, metavar="N",
                         help="start a local Dask cluster of N worker processes")
     parser.add_argument("--scheduler", metavar="ADDRESS", help="run on the Dask cluster at ADDRESS")
@@ -43,7 +46,8 @@ def run(args) -> int:
 
         check_plots(spec)  # a bad [[plot]] table is reported before the runs, not after
     out = args.out or f"sweeps/{spec.name}"
-    outcome = sweep(spec, out, threads=args.threads, workers=args.workers, scheduler=args.scheduler,
+    outcome = sweep(spec, out, threads=args.threads, processes=args.processes, workers=args.workers,
+                    scheduler=args.scheduler,
                     overwrite=args.overwrite, progress=not args.quiet, log=sys.stderr)
     counts = ", ".join(f"{n} {status}" for status, n in sorted(outcome.counts.items()))
     print(f"{spec.name}: {outcome.n_runs} runs ({counts}) in {outcome.seconds:.1f} s on {outcome.executor}")

@@ -9,7 +9,9 @@ grow with the number of runs.
 
 Executors:
 
-* local (default): a thread pool of ``threads`` threads (default: every core).  The compiled
+* local processes (``processes=N``): a pool of N spawned worker processes, nothing shared;
+  each loads the compiled code from numba's disk cache once.  For many short runs.
+* local threads (default): a thread pool of ``threads`` threads (default: every core).  The compiled
   loop releases the GIL, so the runs of different threads overlap; each run's set-up (reading
   its tables, the controller's parameters) is Python and holds it.
 * Dask (``scheduler="tcp://host:8786"`` for a running cluster, or ``workers=N`` to start a
@@ -102,12 +104,20 @@ def _progress(total: int, initial: int, label: str, enabled: bool):
     return tqdm(total=total, initial=initial, unit="run", desc=label, file=sys.stderr, smoothing=0.1)
 
 
-def _local(spec, store, pending, threads, bar) -> dict:
-    from concurrent.futures import FIRST_COMPLETED, ThreadPoolExecutor, wait
+def _local(spec, store, pending, threads, bar, processes=None) -> dict:
+    """Chunks on a local pool: ``processes`` worker processes (spawned, so each starts clean
+    and loads the compiled code from the disk cache once) if given, else ``threads`` threads."""
+    import multiprocessing
+    from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, ThreadPoolExecutor, wait
 
     counts = {}
-    threads = threads or os.cpu_count() or 1
-    with ThreadPoolExecutor(max_workers=threads) as pool:
+    if processes:
+        threads = processes
+        pool = ProcessPoolExecutor(max_workers=processes, mp_context=multiprocessing.get_context("spawn"))
+    else:
+        threads = threads or os.cpu_count() or 1
+        pool = ThreadPoolExecutor(max_workers=threads)
+    with pool:
         queue, running = list(reversed(pending)), set()
         try:
             while queue or running:
@@ -172,14 +182,16 @@ def _dask(spec, store, pending, client, bar) -> dict:
     return counts
 
 
-def sweep(spec, out, *, threads: int | None = None, workers: int | None = None,
-          scheduler: str | None = None, overwrite: bool = False, progress: bool = False,
+def sweep(spec, out, *, threads: int | None = None, processes: int | None = None,
+          workers: int | None = None, scheduler: str | None = None, overwrite: bool = False,
+          progress: bool = False,
           log=None) -> SweepOutcome:
     """Run the sweep ``spec`` (a :class:`SweepSpec` or a sweep file) into the folder ``out``.
 
     Executor: ``scheduler`` (a Dask scheduler address) or ``workers`` (start a local Dask
     cluster of that many processes), else — and unless the file's ``[cluster]`` table says
-    otherwise — ``threads`` local threads (default: every core).  Chunks already in ``out``
+    otherwise — ``processes`` local worker processes, or ``threads`` local threads (default:
+    every core).  Chunks already in ``out``
     from an interrupted run of the same sweep are kept (``overwrite`` starts afresh).
     ``progress`` shows a progress bar on stderr; ``log`` (a text stream) gets the executor's
     description and the Dask dashboard address.
@@ -187,9 +199,10 @@ def sweep(spec, out, *, threads: int | None = None, workers: int | None = None,
     if not isinstance(spec, SweepSpec):
         spec = load_sweep(spec)
     cluster = dict(spec.cluster)
-    if scheduler is None and workers is None and threads is None:
+    if scheduler is None and workers is None and threads is None and processes is None:
         scheduler, workers = cluster.get("scheduler"), cluster.get("workers")
-    for name, value in (("threads", threads), ("workers", workers)):
+        threads, processes = cluster.get("threads"), cluster.get("processes")
+    for name, value in (("threads", threads), ("processes", processes), ("workers", workers)):
         if value is not None and (isinstance(value, bool) or not isinstance(value, int) or value < 1):
             raise SweepFileError(spec.source, f"cluster.{name}",
                                  f"expected a positive integer, got {value!r}")
@@ -219,13 +232,14 @@ def sweep(spec, out, *, threads: int | None = None, workers: int | None = None,
             if local_cluster is not None:
                 local_cluster.close()
     else:
-        executor = f"{threads or os.cpu_count()} local threads"
+        executor = (f"{processes} local processes" if processes
+                    else f"{threads or os.cpu_count()} local threads")
         if log is not None:
             print(f"{spec.name}: {spec.n_runs} runs in {spec.n_chunks} chunks on {executor}", file=log,
                   flush=True)
         bar = _progress(spec.n_runs, done_runs, spec.name, progress)
         try:
-            counts = _local(spec, store, pending, threads, bar)
+            counts = _local(spec, store, pending, threads, bar, processes)
         finally:
             bar.close()
     if completed:

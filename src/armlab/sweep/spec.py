@@ -422,6 +422,14 @@ def load_sweep_file(path) -> SweepSpec:
     if not isinstance(plots, list) or not all(isinstance(p, dict) for p in plots):
         raise SweepFileError(path, "plot", "expected an array of tables [[plot]]")
     cluster = _table(data, "cluster", path)
+    for key, value in cluster.items():
+        if key not in ("scheduler", "workers", "threads", "processes"):
+            raise SweepFileError(path, f"cluster.{key}",
+                                 "unknown key (use processes, scheduler, threads, workers)")
+        if key == "scheduler" and not isinstance(value, str):
+            raise SweepFileError(path, "cluster.scheduler", f"expected an address, got {value!r}")
+        if key != "scheduler":
+            _count(value, path, f"cluster.{key}")
     spec = SweepSpec(name=path.stem, title=data.get("title", path.stem),
                      description=data.get("description", ""),
                      source=str(path), scenario_file=str(scenario_file), scenario_table=scenario_table,
