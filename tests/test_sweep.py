@@ -375,3 +375,26 @@ def test_benchmark_mujoco_rollout_agrees_with_the_sweep_runs():
     import bench_sweep
 
     assert bench_sweep.check_mujoco(runs=2) < 1e-9
+
+
+def test_report_page_of_a_sweep(tmp_path):
+    from armlab.viz.sweeps import sweep_section
+
+    spec = small(tmp_path)
+    out = tmp_path / "out"
+    sweep(spec, out, threads=1)
+    assert not (out / "plots").exists()
+    page = sweep_section(out, 3)
+    pngs = list((out / "plots").glob("*.png"))          # drawn from the sweep file for the page
+    assert pngs and page.count("<img") == len(pngs) and page.count("data:image/png;base64,") == len(pngs)
+    assert 'id="sweep3"' in page and "Sweep — small" in page and "6 runs: 6 ok" in page
+    assert "<td>peak_torque</td>" in page
+    with pytest.raises(SweepStoreError, match="not an output folder"):
+        sweep_section(tmp_path)
+
+
+def test_report_command_takes_sweep_folders():
+    from armlab.cli import build_parser
+
+    args = build_parser().parse_args(["report", "--sweep", "a", "--sweep", "b"])
+    assert args.sweep == ["a", "b"]

@@ -18,6 +18,8 @@ def register(subparsers) -> None:
                         help="shortened runs (a fast preview; the numbers are those of the short runs)")
     parser.add_argument("--no-animation", action="store_true", help="leave out the GIF")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
+    parser.add_argument("--sweep", action="append", default=[], metavar="DIR",
+                        help="add the page of the sweep written to DIR by `armlab sweep` (repeatable)")
     parser.set_defaults(func=run)
 
 
@@ -25,6 +27,6 @@ def run(args) -> int:
     from armlab.viz.report import build_report
 
     path = build_report(args.robot, args.out, quick=args.quick, show_progress=not args.quiet,
-                        animation=not args.no_animation)
+                        animation=not args.no_animation, sweeps=args.sweep)
     print(path)
     return 0

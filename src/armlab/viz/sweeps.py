@@ -251,3 +251,47 @@ def plot_sweep(spec, folder) -> list[Path]:
         fig.savefig(path)
         written.append(path)
     return written
+
+
+def sweep_section(folder, index: int = 0) -> str:
+    """The report's page of the sweep in ``folder``: its title, description, run counts, the
+    summary of each metric over the runs that are ok, and its plots (drawn now from its sweep
+    file when the folder has none)."""
+    import json
+
+    from armlab.errors import ArmlabError
+    from armlab.sweep import load_sweep_file, read_results
+    from armlab.viz import html
+
+    folder = Path(folder)
+    try:
+        manifest = json.loads((folder / "manifest.json").read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        from armlab.errors import SweepStoreError
+
+        raise SweepStoreError(f"{folder}: has no readable manifest.json "
+                              "(not an output folder of armlab sweep)") from None
+    frame = read_results(folder).to_pandas()
+    pngs = sorted((folder / "plots").glob("*.png"))
+    note = ""
+    if not pngs:
+        try:
+            pngs = plot_sweep(load_sweep_file(manifest.get("source", "")), folder)
+        except (ArmlabError, OSError) as error:
+            note = f'<p class="missing">No plots: {html.escape(error)}</p>'
+    counts = frame["status"].value_counts()
+    ok = frame[frame["status"] == "ok"]
+    rows = []
+    for name, unit in METRICS:
+        values = ok[name].dropna()
+        if len(values):
+            rows.append([name, unit, f"{values.min():.4g}", f"{values.median():.4g}", f"{values.max():.4g}",
+                         str(len(values))])
+    summary = html.table(["metric", "unit", "min", "median", "max", "runs"], rows, numeric={2, 3, 4, 5},
+                         caption=f"{len(frame)} runs: " + ", ".join(f"{n} {s}" for s, n in counts.items()))
+    figures = "".join(html.figure(html.png_data_uri(p.read_bytes()), p.stem, kind="scope",
+                                  ident=f"sweep{index}-{k}") for k, p in enumerate(pngs))
+    title = html.escape(manifest.get("title", folder.name))
+    return (f'<section class="assignment" id="sweep{index}" data-sweep="{html.escape(folder.name)}">'
+            f"<h2>Sweep — {title}</h2><p class=\"note\">{html.escape(manifest.get('source', ''))}; "
+            f"scenario {html.escape(manifest.get('scenario', ''))}</p>{summary}{note}{figures}</section>")
