@@ -398,3 +398,37 @@ def test_report_command_takes_sweep_folders():
 
     args = build_parser().parse_args(["report", "--sweep", "a", "--sweep", "b"])
     assert args.sweep == ["a", "b"]
+
+
+def test_decimated_signals_are_kept_per_chunk_and_equal_the_runs(tmp_path):
+    from armlab.scenarios import scenario_from_table
+    from armlab.sweep import read_signals
+
+    spec = small(tmp_path, 'chunk_size = 4\n[signals]\nnames = ["q", "tau_cmd", "q_err"]\nevery = 7')
+    out = tmp_path / "out"
+    sweep(spec, out, threads=2)
+    assert len(list((out / "signals").glob("part-*.parquet"))) == spec.n_chunks
+    signals = read_signals(out).to_pandas()
+    assert sorted(signals["run"].unique()) == list(range(spec.n_runs))
+    for index in (0, 1, 5):
+        result = scenario_from_table(spec.table(index)[1], spec.scenario_file).run()
+        mine = signals[signals["run"] == index]
+        np.testing.assert_array_equal(mine["t"], result.t[::7])
+        np.testing.assert_array_equal(mine[["q.d1", "q.theta2", "q.d3"]].to_numpy(), result.q[::7])
+        np.testing.assert_array_equal(mine["q_err.theta2"], result.signals["q_err"][::7, 1])
+        if "tau_cmd" in result.signals:      # logged only with a finite torque limit
+            np.testing.assert_array_equal(mine["tau_cmd.d1"], result.signals["tau_cmd"][::7, 0])
+        else:
+            assert mine["tau_cmd.d1"].isna().all()
+    only = read_signals(out, runs=[2]).to_pandas()
+    assert set(only["run"]) == {2}
+
+
+def test_signals_table_is_checked(tmp_path):
+    for text, field in (('[signals]\nnames = ["nope"]', "signals.names"),
+                        ('[signals]\nnames = []', "signals.names"),
+                        ('[signals]\nnames = ["q"]\nevery = 0', "signals.every"),
+                        ('[signals]\nnames = ["q"]\nkeep = 1', "signals.keep")):
+        path = write(tmp_path, f'scenario = "a7_id_high_gain"\n{text}')
+        with pytest.raises(SweepFileError, match=f": {field}: "):
+            load_sweep_file(path)

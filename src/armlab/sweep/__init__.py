@@ -9,8 +9,8 @@ run to a resumable Parquet dataset (``armlab.sweep.store``).  Bundled sweep file
 
 from armlab.sweep.runner import SweepOutcome, run_chunk, run_one, sweep
 from armlab.sweep.spec import SweepSpec, bundled_sweep_names, load_sweep, load_sweep_file, sweep_path
-from armlab.sweep.store import read_results
+from armlab.sweep.store import read_results, read_signals
 
 __all__ = ["SweepOutcome", "SweepSpec", "bundled_sweep_names", "load_sweep", "load_sweep_file",
-           "read_results",
+           "read_results", "read_signals",
            "run_chunk", "run_one", "sweep", "sweep_path"]

@@ -54,18 +54,57 @@ def run_one(spec: SweepSpec, index: int) -> dict:
         return {**row, "status": "invalid", "diagnosis": " ".join(str(error).split())}
     row.update(measure(result))
     row["status"], row["diagnosis"] = result.status, result.diagnosis
+    if spec.signals:
+        row[SIGNALS] = decimated(result, spec.signals, spec.signals_every, index)
     return row
+
+
+SIGNALS = "__signals__"
+"""The key of a row's (and a chunk's) decimated signals, stored apart from the table."""
+
+
+def decimated(result, names, every: int, index: int) -> dict:
+    """{column: samples} of every ``every``-th sample of the signals ``names`` of a run:
+    ``run``, ``t`` and one column ``<signal>.<label>`` per component (a signal the run did not
+    log, such as ``tau_cmd`` without a torque limit, has no columns)."""
+    import numpy as np
+
+    keep = slice(0, None, every)
+    t = np.asarray(result.t)[keep]
+    columns = {"run": np.full(t.size, index, dtype=np.int64), "t": t}
+    for name in names:
+        data = getattr(result, name) if name in ("q", "qd", "qdd", "tau", "z") else result.signals.get(name)
+        if data is None:
+            continue
+        data = np.asarray(data)[keep]
+        for k, label in enumerate(result.labels.get(name, ())[:data.shape[1]] or range(data.shape[1])):
+            columns[f"{name}.{label}"] = np.ascontiguousarray(data[:, k])
+    return columns
 
 
 def run_chunk(spec: SweepSpec, chunk: int) -> dict[str, list]:
     """The rows of chunk ``chunk`` as columns ``{name: [values]}`` (a Dask task)."""
     names = ("run", *spec.parameter_names, "status", "diagnosis", *METRIC_NAMES)
     columns = {name: [] for name in names}
+    signals = []
     for index in spec.chunk_runs(chunk):
         row = run_one(spec, index)
         for name in names:
             columns[name].append(row[name])
+        if SIGNALS in row:
+            signals.append(row[SIGNALS])
+    if spec.signals:
+        columns[SIGNALS] = _concatenate(signals)
     return columns
+
+
+def _concatenate(parts: list[dict]) -> dict:
+    """One column set of the runs' signal columns; a column some runs lack is NaN there."""
+    import numpy as np
+
+    names = list(dict.fromkeys(name for part in parts for name in part))
+    return {name: np.concatenate([part[name] if name in part else np.full(part["t"].size, np.nan)
+                                  for part in parts]) if parts else np.zeros(0) for name in names}
 
 
 @dataclass(frozen=True)
@@ -137,7 +176,7 @@ def _local(spec, store, pending, threads, bar, processes=None) -> dict:
 
 
 def _store(store, chunk, columns, counts, bar):
-    store.write(chunk, columns)
+    store.write(chunk, columns, columns.pop(SIGNALS, None))
     for status in columns["status"]:
         counts[status] = counts.get(status, 0) + 1
     bar.update(len(columns["run"]))

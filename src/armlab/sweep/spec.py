@@ -56,7 +56,7 @@ import numpy as np
 from armlab.errors import ArmlabError, FieldPathError, ScenarioFileError, SweepFileError
 from armlab.model.toml_io import evaluate_expression
 
-TOP_KEYS = {"title", "description", "scenario", "seed", "runs", "chunk_size", "set", "grid", "zip",
+TOP_KEYS = {"title", "description", "scenario", "seed", "runs", "chunk_size", "set", "grid", "zip", "signals",
             "random", "derived", "plot", "cluster"}
 GRID_KINDS = ("values", "linspace", "geomspace")
 RANDOM_KINDS = ("uniform", "normal", "log_uniform")
@@ -64,6 +64,8 @@ _NAME = r"[A-Za-z_][A-Za-z0-9_]*"
 _PATH = re.compile(rf"^{_NAME}(\[\d+\])*(\.{_NAME}(\[\d+\])*)*$")
 _SEGMENT = re.compile(rf"({_NAME})((?:\[\d+\])*)")
 MAX_RUNS = 10**9
+MAX_AXIS = 10**6
+"""The longest grid axis (its values are held in memory; a sweep's runs are not)."""
 
 
 @dataclass(frozen=True)
@@ -102,6 +104,8 @@ class SweepSpec:
     derived: tuple[tuple[str, str], ...]
     plots: tuple[dict, ...] = ()
     cluster: tuple[tuple[str, object], ...] = ()
+    signals: tuple[str, ...] = ()
+    signals_every: int = 10
 
     # ------------------------------------------------------------------ size and layout
     @property
@@ -129,7 +133,8 @@ class SweepSpec:
         text = json.dumps([self.scenario_table, self.seed, self.draws, self.chunk_size, self.fixed,
                            [(a.key, a.values, a.kind, a.bounds)
                             for a in self.grid + self.zipped + self.random],
-                           self.derived, [len(self.grid), len(self.zipped)]], sort_keys=True, default=str)
+                           self.derived, [len(self.grid), len(self.zipped)], self.signals,
+                           self.signals_every], sort_keys=True, default=str)
         return hashlib.sha256(text.encode()).hexdigest()[:16]
 
     # ------------------------------------------------------------------ one run
@@ -260,9 +265,9 @@ def _number(value, file, where) -> float:
     return float(value)
 
 
-def _count(value, file, where, low=1) -> int:
-    if isinstance(value, bool) or not isinstance(value, int) or not low <= value <= MAX_RUNS:
-        raise SweepFileError(file, where, f"expected an integer from {low} to {MAX_RUNS}, got {value!r}")
+def _count(value, file, where, low=1, high=MAX_RUNS) -> int:
+    if isinstance(value, bool) or not isinstance(value, int) or not low <= value <= high:
+        raise SweepFileError(file, where, f"expected an integer from {low} to {high}, got {value!r}")
     return value
 
 
@@ -297,7 +302,7 @@ def _grid_axis(key, spec, file, where) -> Axis:
     if len(raw) != 3:
         raise SweepFileError(file, f"{where}.{kind}", "expected [first, last, count]")
     first, last = (_number(v, file, f"{where}.{kind}") for v in raw[:2])
-    count = _count(raw[2], file, f"{where}.{kind}[2]")
+    count = _count(raw[2], file, f"{where}.{kind}[2]", high=MAX_AXIS)
     if not (math.isfinite(first) and math.isfinite(last)):
         raise SweepFileError(file, f"{where}.{kind}", "first and last must be finite")
     if kind == "geomspace" and (first <= 0 or last <= 0):
@@ -421,6 +426,7 @@ def load_sweep_file(path) -> SweepSpec:
     plots = data.get("plot", [])
     if not isinstance(plots, list) or not all(isinstance(p, dict) for p in plots):
         raise SweepFileError(path, "plot", "expected an array of tables [[plot]]")
+    signals, every = _signals(_table(data, "signals", path), path)
     cluster = _table(data, "cluster", path)
     for key, value in cluster.items():
         if key not in ("scheduler", "workers", "threads", "processes"):
@@ -435,9 +441,30 @@ def load_sweep_file(path) -> SweepSpec:
                      source=str(path), scenario_file=str(scenario_file), scenario_table=scenario_table,
                      seed=seed, draws=draws, chunk_size=chunk_size, fixed=fixed, grid=grid, zipped=zipped,
                      random=random, derived=tuple(derived), plots=tuple(plots),
+                     signals=signals, signals_every=every,
                      cluster=tuple(cluster.items()))
     _check_against_scenario(spec, path)
     return spec
+
+
+BASE_SIGNALS = ("q", "qd", "qdd", "tau", "z")
+
+
+def _signals(table: dict, path) -> tuple[tuple[str, ...], int]:
+    """The ``[signals]`` table: ``names`` (signals of each run to keep) and ``every`` (keep
+    every m-th sample)."""
+    unknown = sorted(set(table) - {"names", "every"})
+    if unknown:
+        raise SweepFileError(path, f"signals.{unknown[0]}", "unknown key (use every, names)")
+    if not table:
+        return (), 10
+    names = table.get("names")
+    if not isinstance(names, list) or not names or not all(isinstance(n, str) for n in names):
+        raise SweepFileError(path, "signals.names",
+                             "expected an array of signal names such as [\"q\", \"tau\"]")
+    if len(set(names)) != len(names):
+        raise SweepFileError(path, "signals.names", "names a signal twice")
+    return tuple(names), _count(table.get("every", 10), path, "signals.every", high=10**6)
 
 
 def default_chunk_size(n_runs: int) -> int:
@@ -474,15 +501,22 @@ def _check_against_scenario(spec: SweepSpec, path: Path) -> None:
         raise SweepFileError(path, "grid", "no runs (an axis is empty)")
     try:
         _, table = spec.table(0)
-        scenario_from_table(table, spec.scenario_file)
+        scenario = scenario_from_table(table, spec.scenario_file)
     except ScenarioFileError as error:
         for key, label in where.items():
             if _is_field(key) and error.reason.startswith(("unknown key", "no such link")) and (
                     error.field == key or key.startswith(error.field + ".")):
                 raise SweepFileError(path, label,
                                      f"the scenario has no such field ({error.reason})") from None
+        return
     except (ArmlabError, FieldPathError):
-        pass
+        return
+    known = set(BASE_SIGNALS) | {s.name for s in scenario.controller.signals()}
+    known |= {"tau_cmd", "tau_dist", "h_e"}  # logged when a run has a limit, disturbances, contact
+    for name in spec.signals:
+        if name not in known:
+            raise SweepFileError(path, "signals.names", f"{name!r} is not a signal of this scenario "
+                                                        f"(use {', '.join(sorted(known))})")
 
 
 def _bundled_files() -> dict[str, Path]:

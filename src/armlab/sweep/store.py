@@ -87,11 +87,11 @@ class SweepStore:
                         f"{self.folder}: holds the results of another sweep (or of this file before an "
                         "edit); choose another output folder or overwrite it")
             else:
-                for path in self.runs.iterdir():
-                    if _PART.match(path.name):
+                for folder in (self.runs, self.folder / "signals"):
+                    for path in folder.glob("part-*.parquet"):
                         path.unlink()
-            for path in self.runs.iterdir():
-                if path.name.startswith(".") and path.name.endswith(".tmp"):
+            for folder in (self.runs, self.folder / "signals"):
+                for path in folder.glob(".*.tmp"):
                     path.unlink()  # a chunk whose writer was interrupted: it runs again
             self._write_atomic(manifest_path, json.dumps(self.manifest(), indent=1).encode())
             return self.completed()
@@ -109,13 +109,20 @@ class SweepStore:
     def part(self, chunk: int) -> Path:
         return self.runs / f"part-{chunk:06d}.parquet"
 
-    def write(self, chunk: int, columns: dict[str, list]) -> None:
-        """Write chunk ``chunk``'s rows (``{column: values}``) as one Parquet file, atomically."""
-        pa, pq = _pyarrow()
-        table = pa.Table.from_pydict(columns, schema=self.schema)
-        target = self.part(chunk)
-        temporary = self.runs / f".{target.name}.{os.getpid()}.tmp"
+    def write(self, chunk: int, columns: dict[str, list], signals: dict | None = None) -> None:
+        """Write chunk ``chunk``'s rows (``{column: values}``) as one Parquet file, atomically;
+        its decimated ``signals`` (``{column: array}``) first, into ``signals/``: the rows'
+        file is what marks the chunk complete."""
+        pa, _ = _pyarrow()
+        if signals is not None:
+            self._write_parquet(pa.table(signals), self.folder / "signals" / f"part-{chunk:06d}.parquet")
+        self._write_parquet(pa.Table.from_pydict(columns, schema=self.schema), self.part(chunk))
+
+    def _write_parquet(self, table, target: Path) -> None:
+        _, pq = _pyarrow()
+        temporary = target.with_name(f".{target.name}.{os.getpid()}.tmp")
         try:
+            target.parent.mkdir(exist_ok=True)
             pq.write_table(table, temporary)
             os.replace(temporary, target)
         except OSError as error:
@@ -129,6 +136,22 @@ class SweepStore:
     def read(self):
         """Every written row as one ``pyarrow.Table``, sorted by run."""
         return read_results(self.folder)
+
+
+def read_signals(folder, runs=None):
+    """The decimated signals a sweep kept (its ``[signals]`` table): a ``pyarrow.Table`` of
+    rows (run, t, <signal>.<label> …) sorted by run and time; ``runs`` selects some runs."""
+    pa, pq = _pyarrow()
+    parts = sorted((Path(folder) / "signals").glob("part-*.parquet"))
+    if not parts:
+        raise SweepStoreError(f"{folder}: holds no signals (the sweep file has no [signals] table)")
+    filters = None if runs is None else [("run", "in", list(runs))]
+    try:
+        table = pa.concat_tables([pq.read_table(p, filters=filters) for p in parts],
+                                 promote_options="default")
+    except (OSError, pa.ArrowInvalid) as error:
+        raise SweepStoreError(f"{folder}: cannot be read ({error})") from None
+    return table.sort_by([("run", "ascending"), ("t", "ascending")])
 
 
 def read_results(folder):
