@@ -137,6 +137,8 @@ BAD = [
      "unknown name"),
     ('scenario = "a7_id_high_gain"\n[grid]\na = { linspace = [0, 1, 0] }', "grid.a.linspace[2]", "integer"),
     ('scenario = "a7_id_high_gain"\nseed = -1', "seed", "integer"),
+    ('scenario = "a7_id_high_gain"\n[grid]\na = { linspace = [0, 1, 10000000000] }', "grid.a.linspace[2]",
+     "integer from 1 to 1000000"),
     ('scenario = "a7_id_high_gain"\n[grid]\n"a b" = { values = [1] }', "grid.a b", "field path"),
     ("scenario = [", "toml", ""),
     ('scenario = "a7_id_high_gain"\n[cluster]\nnodes = 3', "cluster.nodes", "unknown key"),
