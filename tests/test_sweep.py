@@ -266,6 +266,8 @@ def test_resume_runs_only_missing_chunks_and_refuses_another_sweep(tmp_path):
     assert {p.name: p.stat().st_mtime_ns for p in (parts[0], parts[2])} == stamps
     assert not list((out / "runs").glob(".*.tmp"))
     pd.testing.assert_frame_equal(frame(out), reference, check_exact=True)
+    finished = sweep(spec, out, workers=2)           # complete: no cluster is started
+    assert finished.counts == {"resumed": 6} and finished.executor == "nothing left to run"
     edited = small(tmp_path, "chunk_size = 2", t_final=0.06, name="edited.toml")
     with pytest.raises(SweepStoreError, match="another sweep"):
         sweep(edited, out, threads=1)

@@ -195,11 +195,18 @@ def _dask_client(scheduler, workers, source):
     return Client(cluster), cluster
 
 
+def _same(value):
+    return value
+
+
 def _dask(spec, store, pending, client, bar) -> dict:
     from distributed import as_completed
 
     counts = {}
-    spec_future = client.scatter(spec, broadcast=True)
+    # The sweep as the result of a task rather than scattered data: a worker that dies with
+    # it leaves the scheduler able to make it again (scattered data would be lost for good,
+    # and with it every task that needs it).
+    spec_future = client.submit(_same, spec, key=f"armlab-sweep-spec-{spec.fingerprint()}-{time.time_ns()}")
     slots = max(2, 2 * sum(client.nthreads().values()))
     queue = list(reversed(pending))
     submitted = {}
@@ -252,7 +259,9 @@ def sweep(spec, out, *, threads: int | None = None, processes: int | None = None
     pending = [c for c in range(spec.n_chunks) if c not in completed]
     done_runs = sum(len(spec.chunk_runs(c)) for c in completed)
     start = time.perf_counter()
-    if scheduler or workers:
+    if not pending:
+        executor, counts = "nothing left to run", {}
+    elif scheduler or workers:
         client, local_cluster = _dask_client(scheduler, workers, spec.source)
         executor = f"dask {client.scheduler.address}"
         try:
