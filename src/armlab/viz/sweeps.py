@@ -25,7 +25,7 @@ matplotlib.use("Agg")
 import numpy as np  # noqa: E402
 from matplotlib.backends.backend_agg import FigureCanvasAgg  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
-from matplotlib.ticker import ScalarFormatter  # noqa: E402
+from matplotlib.ticker import FormatStrFormatter  # noqa: E402
 
 from armlab.errors import SweepFileError  # noqa: E402
 from armlab.sweep.metrics import METRICS  # noqa: E402
@@ -121,7 +121,9 @@ def _log_x(ax, values):
     else:
         ax.set_xscale("log")
         if positive.max() / positive.min() < 100:
-            ax.xaxis.set_major_formatter(ScalarFormatter())
+            # A short decade range: plain numbers (4, 6, 10, 20, …) rather than 4×10⁰.
+            ax.xaxis.set_major_formatter(FormatStrFormatter("%g"))
+            ax.xaxis.set_minor_formatter(FormatStrFormatter("%g"))
 
 
 def _line(spec, frame, plot):
