@@ -39,7 +39,7 @@ seed = 3
 "simulation.t_final" = {t_final}
 [grid]
 omega_n = {{ values = [5, 10, 20] }}
-"simulation.torque_limit" = {{ values = [20, inf] }}
+"simulation.torque_limit" = {{ values = [20, 1e6] }}
 [derived]
 "controller.kp" = "omega_n**2"
 "controller.kd" = "2*omega_n"

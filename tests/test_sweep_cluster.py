@@ -31,7 +31,7 @@ chunk_size = {chunk}
 "simulation.t_final" = {t_final}
 [grid]
 omega_n = {{ linspace = [5, 40, {count}] }}
-"simulation.torque_limit" = {{ values = [20, inf] }}
+"simulation.torque_limit" = {{ values = [20, 1e6] }}
 [derived]
 "controller.kp" = "omega_n**2"
 "controller.kd" = "2*omega_n"
