@@ -1,9 +1,11 @@
 """``armlab demo``: the seed's assignment A1 on the PRP arm — its DH tables from Σ_base and
 from Σ_0 (symbolic entries and numeric values) and the forward kinematics T_3^0 and T_3^base
-at the seed's pose d1 = 0.1 m, θ2 = π/3, d3 = 0.1 m — then the whole seed as one HTML report
-(``armlab report``, written to ``--out``) unless ``--no-report``."""
+at the seed's pose d1 = 0.1 m, θ2 = π/3, d3 = 0.1 m — in about a second.  The whole seed is
+``armlab report`` (``make demo`` runs both); ``--report`` builds it here too."""
 
 from __future__ import annotations
+
+import argparse
 
 import numpy as np
 
@@ -22,9 +24,12 @@ def register(subparsers) -> None:
     parser.add_argument("--robot", default="prp", help="bundled robot or robot file (default: prp)")
     parser.add_argument("--q", help="joint values, e.g. '0.1, pi/3, 0.1' (default: the seed's "
                                     "pose for the PRP, zeros otherwise)")
+    parser.add_argument("--report", action="store_true",
+                        help="then build the HTML report of the whole seed (as `armlab report`)")
     parser.add_argument("--out", default="report", help="directory of the HTML report (default: report)")
     parser.add_argument("--quick", action="store_true", help="shortened runs in the report")
-    parser.add_argument("--no-report", action="store_true", help="only print the A1 tables")
+    # The tables alone are the default now; the old switch is still accepted.
+    parser.add_argument("--no-report", action="store_true", help=argparse.SUPPRESS)
     parser.set_defaults(func=run)
 
 
@@ -64,8 +69,9 @@ def run(args) -> int:
         print(f"\nForward kinematics T_{n}^base = T_base,0 · T_{n}^0")
         print(format_matrix(forward_kinematics(robot, q, frame="base"), "  "))
 
-    if args.no_report:
+    if not args.report or args.no_report:
         print_tables()
+        print("\nThe whole seed (A1–A15) as one HTML page: armlab report")
         return 0
     from armlab.viz.report import build_report
 

@@ -15,7 +15,8 @@ def register(subparsers) -> None:
     parser.add_argument("--robot", default="prp", help="bundled robot name or robot file")
     parser.add_argument("--out", default="report", help="output directory")
     parser.add_argument("--quick", action="store_true",
-                        help="shortened runs (a fast preview; the numbers are those of the short runs)")
+                        help="a fast preview: the first scenario of each assignment, runs shortened, "
+                             "no animation (the numbers are those of the short runs)")
     parser.add_argument("--no-animation", action="store_true", help="leave out the GIF")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
     parser.add_argument("--sweep", action="append", default=[], metavar="DIR",
@@ -27,6 +28,6 @@ def run(args) -> int:
     from armlab.viz.report import build_report
 
     path = build_report(args.robot, args.out, quick=args.quick, show_progress=not args.quiet,
-                        animation=not args.no_animation, sweeps=args.sweep)
+                        animation=not (args.no_animation or args.quick), sweeps=args.sweep)
     print(path)
     return 0

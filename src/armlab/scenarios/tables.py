@@ -14,7 +14,8 @@ annotation                    what the file writes
 ``tuple[int, ...]``           an array of integers
 ``float``                     a number or an expression string (``"pi/3"``)
 ``Robot``                     a robot name or file; ``<field>_link_mass = {link = mass}``
-                              overrides masses; a required one defaults to the plant
+                              overrides masses; a required one, or one given only by its
+                              masses, defaults to the plant
 a class with registered       a table: ``type`` picks the subclass (a registered class
 subclasses                    itself needs no ``type``)
 anything else                 numbers, arrays or nested arrays of them (expressions allowed)
@@ -235,7 +236,10 @@ def build(base: type, table, file, where: str, plant: str | None = None):
         if hint is not Robot:
             arguments[key] = read(hint, value, file, f"{where}.{key}", plant)
     for name, (hint, required) in fields.items():
-        if hint is Robot and (name in table or (required and plant is not None)):
+        # An optional robot is built when named or when only its masses are overridden (it is
+        # then the plant with those masses).
+        given = name in table or f"{name}_link_mass" in table
+        if hint is Robot and (given or (required and plant is not None)):
             arguments[name] = robot(table.get(name, plant), table.get(f"{name}_link_mass", {}),
                                     file, f"{where}.{name}")
         if required and name not in arguments:

@@ -5,14 +5,13 @@ The tracking error e(t) of a run is its controller's ``q_err`` signal (joint spa
 component k, T_tail the last 5 % of the run, T_half its second half, h the logging step.
 
 ====================  =====================================================================
-settling_time [s]     max_k of the time after which e_k stays within 2 % of its largest
-                      excursion from its final value e_k,∞ = mean_{T_tail} e_k:
-                      |e_k − e_k,∞| ≤ 0.02 max_t |e_k − e_k,∞| (a constant component settles
-                      at t₀; deviations below 1e-9 are round-off); NaN if a component
-                      leaves its band during T_tail
-overshoot [%]         max_k of 100 · max(0, max_t(−e_k(t) sgn e_k(0))) / |e_k(0)| over the
-                      components that start away from their reference (|e_k(0)| > 1e-9);
-                      NaN if none does (a tracking run that starts on its reference)
+settling_time [s]     max_k of ``armlab.metrics.settling_time`` of e_k: the time after which
+                      |e_k − e_k,∞| ≤ 0.02 max_t |e_k − e_k,∞|, e_k,∞ = mean_{T_tail} e_k (a
+                      component that moves less than 1e-9 settles at t₀: round-off); NaN if
+                      a component is outside its band at the last sample
+overshoot [%]         max_k of ``armlab.metrics.overshoot`` of e_k: how far e_k goes past
+                      e_k,∞, in % of |e_k(0) − e_k,∞|, over the components whose e_k starts at
+                      its largest distance from e_k,∞ (step responses); NaN if none does
 steady_state_error    max_k |mean_{T_tail} e_k| (each component in its own unit)
 oscillation           max_k (max_{T_tail} e_k − min_{T_tail} e_k): what is left oscillating
 rms_error             sqrt(mean_t ‖e(t)‖²) over the whole run
@@ -42,12 +41,12 @@ import math
 
 import numpy as np
 
-TAIL = 0.05
-BAND = 0.02
+from armlab.metrics import overshoot, settling_time, steady_state, tail_slice
+
 PARAMETER_BAND = 0.05
 FLOOR = 1e-9
 """Deviations below this (in the signal's unit, m or rad) are round-off: a component that
-moves less than that is constant (an orientation error of 1e-13 rad does not 'settle')."""
+moves less than that is constant (an orientation error of 1e-13 rad has nothing to settle)."""
 FORCE_REFERENCES = ("f_d", "f_des", "h_d", "h_des", "f_ref")
 """Signal names of a desired contact force, as the interaction controllers log it."""
 
@@ -60,35 +59,6 @@ METRICS: tuple[tuple[str, str], ...] = (
 """(column, unit) of every metric, in table order (units of mixed joints: N or N·m, m or rad)."""
 
 METRIC_NAMES = tuple(name for name, _ in METRICS)
-
-
-def tail_slice(t: np.ndarray, fraction: float = TAIL) -> slice:
-    """The samples of the last ``fraction`` of the time span (at least one)."""
-    start = t[-1] - fraction * (t[-1] - t[0])
-    first = int(np.searchsorted(t, start, side="left"))
-    return slice(min(first, t.size - 1), None)
-
-
-def settling_time(t: np.ndarray, e: np.ndarray, band: float = BAND) -> float | None:
-    """Time [s] after which e stays within ``band`` of its excursion around its final value:
-    |e(t) − e_∞| ≤ band · max_t |e(t) − e_∞|, with e_∞ the mean of e over the last 5 % (so a
-    run that settles on a steady-state error settles).  ``t[0]`` for a constant signal; None
-    if a sample of the last 5 % is outside the band (still moving or oscillating at the end:
-    a settled signal stays settled for at least that long).  Deviations below ``FLOOR`` count
-    as none."""
-    tail = tail_slice(t)
-    final = float(np.mean(e[tail]))
-    deviation = np.abs(e - final)
-    peak = float(np.nanmax(deviation))
-    if peak <= FLOOR:
-        return float(t[0])
-    outside = np.flatnonzero(deviation > max(band * peak, FLOOR))
-    if outside.size == 0:
-        return float(t[0])
-    last = int(outside[-1])
-    if last >= tail.start:
-        return None
-    return float(t[last + 1])
 
 
 def convergence_time(t: np.ndarray, e: np.ndarray, band: float) -> float | None:
@@ -119,18 +89,23 @@ def tracking_error(result) -> tuple[np.ndarray | None, np.ndarray | None]:
 
 def _error_metrics(t, e, e_p) -> dict:
     tail = tail_slice(t)
-    settle = [settling_time(t, e[:, k]) for k in range(e.shape[1])]
-    start = e[0]
-    moving = np.abs(start) > 1e-9
-    overshoot = math.nan
-    if moving.any():
-        beyond = -e[:, moving] * np.sign(start[moving])
-        overshoot = float(100.0 * np.max(np.maximum(beyond.max(axis=0), 0.0) / np.abs(start[moving])))
+    settle, overshoots, finals, ranges = [], [], [], []
+    for k in range(e.shape[1]):
+        final, _, peak_to_peak = steady_state(t, e[:, k])
+        finals.append(abs(final))
+        ranges.append(peak_to_peak)
+        if np.max(np.abs(e[:, k] - final)) <= FLOOR:
+            settle.append(float(t[0]))  # constant up to round-off
+            continue
+        settle.append(settling_time(t, e[:, k]))
+        over = overshoot(t, e[:, k])
+        if over is not None:
+            overshoots.append(over)
     return {
         "settling_time": math.nan if any(s is None for s in settle) else float(max(settle)),
-        "overshoot": overshoot,
-        "steady_state_error": float(np.max(np.abs(e[tail].mean(axis=0)))),
-        "oscillation": float(np.max(e[tail].max(axis=0) - e[tail].min(axis=0))),
+        "overshoot": float(max(overshoots)) if overshoots else math.nan,
+        "steady_state_error": float(max(finals)),
+        "oscillation": float(max(ranges)),
         "rms_error": float(np.sqrt(np.mean(np.sum(e ** 2, axis=1)))),
         "max_error": float(np.max(np.abs(e))),
         "position_error": math.nan if e_p is None else float(np.linalg.norm(e_p[tail].mean(axis=0))),
