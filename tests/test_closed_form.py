@@ -314,8 +314,12 @@ def test_a_module_that_disagrees_on_disk_is_refused_by_auto_and_removed(monkeypa
     monkeypatch.setattr(closed_form, "_OUTCOMES", {})
     module = closed_form_module(robot)                        # made in this cache folder
     path = tmp_path / "closed_form" / f"{module.__name__}.py"
-    # The same module with a wrong inverse dynamics, as a stale or damaged file would be.
-    path.write_text(path.read_text().replace("tau_out[0] = ", "tau_out[0] = 1.0 + ", 1))
+    # The same module with a wrong inverse dynamics and a digest that matches it, as a faulty
+    # generator would write it (a file damaged after writing fails its digest and is generated
+    # again: tests/test_cache_damage.py).
+    body = path.read_text().rpartition("# armlab-source-sha256: ")[0]
+    body = body.replace("tau_out[0] = ", "tau_out[0] = 1.0 + ", 1)
+    path.write_text(body + closed_form._digest_line(body))
     monkeypatch.setattr(closed_form, "_OUTCOMES", {})
     assert closed_form.plant_kernels(robot, "auto")[0] == "numeric"
     assert "inverse dynamics differ" in closed_form_status(robot)

@@ -31,12 +31,33 @@ PAYLOADS = (
 
 
 def _hostile_prp(payload: str) -> dict:
+    """prp with ``payload`` in every text field; names are single lines (a name with a line
+    break is refused, see below), so they carry the payload with its line breaks as spaces."""
     data = tomllib.loads(bundled_robot_path("prp").read_text(encoding="utf-8"))
-    data["name"] = data["description"] = data["provenance"] = payload
+    name = payload.replace("\n", " ")
+    data["description"] = data["provenance"] = payload
+    data["name"] = name
     for i, joint in enumerate(data["joints"]):
-        joint["name"] = f"{payload}{i}"
-        joint["link"]["name"] = f"{payload}link{i}"
+        joint["name"] = f"{name}{i}"
+        joint["link"]["name"] = f"{name}link{i}"
     return data
+
+
+@pytest.mark.parametrize("field", ["name", "joints.name", "link.name"])
+@pytest.mark.parametrize("text", ["x\ny", "x\ry", "x\x1b[2Jy", "x\u2028y"])
+def test_names_with_line_breaks_or_control_characters_are_refused(field, text):
+    data = tomllib.loads(bundled_robot_path("prp").read_text(encoding="utf-8"))
+    if field == "name":
+        data["name"] = text
+    elif field == "joints.name":
+        data["joints"][1]["name"] = text
+    else:
+        data["joints"][1]["link"]["name"] = text
+    with pytest.raises(RobotFileError) as caught:
+        robot_from_dict(data, "hostile.toml")
+    message = str(caught.value)
+    assert message.startswith("hostile.toml: ") and "printable" in message
+    assert message.isprintable()
 
 
 @pytest.fixture(params=range(len(PAYLOADS)), ids=lambda i: f"payload{i}")
@@ -98,4 +119,24 @@ def test_expressions_are_never_evaluated_as_python(hostile, field):
     with pytest.raises(RobotFileError) as caught:
         robot_from_dict(data, "hostile.toml")
     assert "hostile.toml" in str(caught.value) and "\n" not in str(caught.value)
+    assert not marker.exists()
+
+
+def test_report_page_escapes_the_robot_text(hostile, tmp_path, monkeypatch):
+    """The HTML report writes the robot's name and description into the page (title, header,
+    the list of what is missing): always escaped.  The drawings and derivations (tens of
+    seconds, escaped where they are made) are left out here."""
+    from armlab.viz import report
+
+    payload, marker = hostile
+    robot = robot_from_dict(_hostile_prp(payload), "hostile.toml")
+    monkeypatch.setattr(report, "_symbolic_sections", lambda robot, progress: {})
+    monkeypatch.setattr(report, "_drawings", lambda robot: "")
+    path = report.build_report(robot, tmp_path / "report", experiments=[], animation=False,
+                               show_progress=False, jobs=1)
+    page = path.read_text(encoding="utf-8")
+    assert "No runnable derivation or scenario" in page  # the section that names the robot
+    for text in (payload, robot.name, robot.joints[0].name):
+        assert text not in page
+    assert "<script" not in page
     assert not marker.exists()

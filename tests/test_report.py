@@ -378,7 +378,8 @@ def test_report_shows_each_sections_seed_note_and_the_metric_definitions(report)
         first = seed_notes(number, DOCS)[0][1]
         words = re.sub(r"[`*]", "", first.split("\n")[0].lstrip("* ")).split()[:6]
         assert html_module.escape(" ".join(words), quote=False) in re.sub(r"<[^>]+>", "", body), number
-    assert "steady-state" in sections["metrics"] and "settling" in sections["metrics"]
+    assert "steady state" in sections["metrics"] and "settling time" in sections["metrics"]
+    assert "oscillation" in sections["metrics"] and "band around the final value" in sections["metrics"]
 
 
 def test_derivations_are_kept_on_disk_keyed_by_robot_and_sources(tmp_path, monkeypatch):

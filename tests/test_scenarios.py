@@ -4,7 +4,7 @@ controller is declared in its own file only; CLI."""
 import subprocess
 import sys
 from dataclasses import dataclass
-from typing import Literal
+from typing import Annotated, Literal
 
 import numpy as np
 import pytest
@@ -19,6 +19,7 @@ from armlab.scenarios import (
     load_scenario_file,
     scenario_path,
 )
+from armlab.scenarios.tables import Condition
 from armlab.simulation.results import SimulationResult
 
 NAMES = bundled_scenario_names()
@@ -27,8 +28,8 @@ INTERACTION = [n for n in NAMES if scenario_path(n).parent.name == "interaction"
 
 
 def test_every_seed_experiment_has_a_scenario():
-    # The seed's seven, and option 3 with the gain condition of its proof met.
-    assert len([n for n in NAMES if n.startswith("a6_")]) == 8
+    # The seed's seven, option 3 with the gain condition of its proof met, and one with joint stops.
+    assert len([n for n in NAMES if n.startswith("a6_")]) == 9
     assert {"a7_id_via_points", "a7_id_mismatch", "a7_id_mismatch_whole_model",
             "a7_id_high_gain_saturated"} <= set(NAMES)
     assert {"a8_case1_sine", "a8_case2_square", "a8_case1_wrong_plant1",
@@ -81,7 +82,7 @@ value = [0, "pi/3", 0]
     (('"pi/3"', '"pi/"'), "controller.reference.value[1]"),
     (('plant = "prp"', 'plant = "nonesuch"'), "plant"),
     (("[simulation]", "[simulation]\nspeed = 2"), "simulation.speed"),
-    (("dt = 0.001", "dt = 0.001\nwhat"), "toml"),
+    (("dt = 0.001", "dt = 0.001\nwhat"), "syntax"),
 ])
 def test_bad_scenario_file_names_file_and_field(tmp_path, change, field):
     path = tmp_path / "bad.toml"
@@ -176,6 +177,25 @@ def test_a_new_controller_with_a_string_option_is_declared_in_its_own_file(tmp_p
     with pytest.raises(ScenarioFileError) as caught:
         load_scenario_file(bad)
     assert str(caught.value) == f"{bad}: controller.tuning: 'clamp' is not one of seed, retuned"
+
+
+@scenario_type("test_bounded_pd")
+@dataclass(frozen=True, eq=False)
+class BoundedPD(JointPDGravity):
+    """A controller whose new field carries a condition in its annotation."""
+
+    softness: Annotated[float, Condition("in [0, 1]", lambda value: 0 <= value <= 1)] = 0.5
+
+
+def test_a_condition_in_a_fields_annotation_is_checked_where_the_file_is_read(tmp_path):
+    path = tmp_path / "bounded.toml"
+    path.write_text(GOOD.replace('type = "joint_pd_gravity"', 'type = "test_bounded_pd"\nsoftness = "1/4"'))
+    assert load_scenario_file(path).controller.softness == 0.25
+    bad = tmp_path / "too_soft.toml"
+    bad.write_text(path.read_text().replace('"1/4"', "2"))
+    with pytest.raises(ScenarioFileError) as caught:
+        load_scenario_file(bad)
+    assert str(caught.value) == f"{bad}: controller.softness: must be in [0, 1], got 2"
 
 
 @pytest.mark.parametrize("change, message", [

@@ -141,7 +141,7 @@ BAD = [
     ('scenario = "a7_id_high_gain"\n[grid]\na = { linspace = [0, 1, 10000000000] }', "grid.a.linspace[2]",
      "integer from 1 to 1000000"),
     ('scenario = "a7_id_high_gain"\n[grid]\n"a b" = { values = [1] }', "grid.a b", "field path"),
-    ("scenario = [", "toml", ""),
+    ("scenario = [", "syntax", ""),
     ('scenario = "a7_id_high_gain"\n[cluster]\nnodes = 3', "cluster.nodes", "unknown key"),
     ('scenario = "a7_id_high_gain"\n[cluster]\nworkers = 0', "cluster.workers", "integer"),
 ]

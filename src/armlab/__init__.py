@@ -31,7 +31,7 @@ _HOMES = {
     "armlab.operational_space": ("operational_space_dynamics",),
     "armlab.simulation.results": ("SimulationResult",),
     "armlab.robots": ("bundled_robot_names", "load_robot"),
-    "armlab.simulation": ("SimulationDiverged", "simulate", "simulate_batch"),
+    "armlab.simulation": ("SimulationDiverged", "SimulationInterrupted", "simulate", "simulate_batch"),
     "armlab.spatial": ("RepresentationSingularityError",),
     "armlab.references.task": ("ForceReference", "PoseReference"),
     "armlab.sweep": ("load_sweep", "read_results", "sweep"),

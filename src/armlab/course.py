@@ -38,6 +38,7 @@ from pathlib import Path
 import numpy as np
 
 from armlab.dynamics import gravity_torque, inertia_matrix
+from armlab.files import write_text
 from armlab.kinematics import forward_kinematics, geometric_jacobian
 from armlab.model.robot import Robot
 from armlab.spatial import euler_from_matrix
@@ -150,8 +151,8 @@ def _surface(stiffness: float, normal: np.ndarray) -> list[list[float]]:
 class _Plan:
     """The choices of the module docstring for one robot, and the scenario files made of them."""
 
-    def __init__(self, robot: Robot, reference: str, seed: int):
-        self.robot, self.reference, n = robot, reference, robot.n
+    def __init__(self, robot: Robot, reference: str, seed: int, tip: str | None = None):
+        self.robot, self.reference, self.tip, n = robot, reference, tip, robot.n
         gravity = np.asarray(robot.gravity, dtype=float)
         norm = np.linalg.norm(gravity)
         self.normal = -gravity / norm if norm > 0 else np.array([0.0, 0.0, 1.0])
@@ -174,6 +175,8 @@ class _Plan:
         document = {"title": title, "assignment": assignment,
                     "description": f"{description} ({self.where})", "plant": self.reference,
                     "simulation": {"dt": 0.001, **simulation}, "controller": controller}
+        if self.tip:
+            document["plant_tip"] = self.tip
         if environment is not None:
             document["environment"] = environment
         self.files[f"{name}.toml"] = to_toml(document)
@@ -279,10 +282,12 @@ class _Plan:
         self.skipped.append("A13: admittance control is generated for the PRP only")
 
 
-def course_scenarios(robot: Robot, reference: str, *, seed: int = SEED) -> tuple[dict[str, str], list[str]]:
+def course_scenarios(robot: Robot, reference: str, *, seed: int = SEED,
+                     tip: str | None = None) -> tuple[dict[str, str], list[str]]:
     """({file name: scenario text}, [why an assignment is left out]) for ``robot``, named in the
-    files by ``reference`` (a bundled name or a path the scenarios can load it from)."""
-    plan = _Plan(robot, reference, seed)
+    files by ``reference`` (a bundled name or a path the scenarios can load it from) and
+    ``tip`` (``plant_tip``, for a URDF/MJCF tree; see :func:`armlab.robots.robot_reference`)."""
+    plan = _Plan(robot, reference, seed, tip)
     plan.joint_space()
     if robot.n < 3:
         plan.skipped.append(f"A9–A15: a {robot.n}-joint arm cannot hold a 3-D position task")
@@ -291,14 +296,13 @@ def course_scenarios(robot: Robot, reference: str, *, seed: int = SEED) -> tuple
     return plan.files, plan.skipped
 
 
-def write_course(robot: Robot, reference: str, folder, *, seed: int = SEED) -> tuple[list[Path], list[str]]:
+def write_course(robot: Robot, reference: str, folder, *, seed: int = SEED,
+                 tip: str | None = None) -> tuple[list[Path], list[str]]:
     """Write :func:`course_scenarios` into ``folder`` (created); (paths, skipped)."""
-    files, skipped = course_scenarios(robot, reference, seed=seed)
+    files, skipped = course_scenarios(robot, reference, seed=seed, tip=tip)
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     paths = []
     for name, text in files.items():
-        path = folder / name
-        path.write_text(text, encoding="utf-8")
-        paths.append(path)
+        paths.append(write_text(folder / name, text))
     return paths, skipped

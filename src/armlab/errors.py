@@ -28,8 +28,14 @@ Each class is also the builtin a Python programmer would catch for the same faul
     ├── ProtocolError (TypeError)          an object that does not follow a protocol (a law that
     │   └── IndirectCallError              is not compiled, a callee with the wrong return type)
     ├── ClosedFormUnavailable (RuntimeError)   no usable generated dynamics for a robot (says why)
-    ├── SimulationDiverged (RuntimeError)  the closed loop diverged; ``.result`` keeps the data
+    ├── SimulationDiverged (RuntimeError)  the closed loop diverged (or was stopped by its step
+    │                                      budget); ``.result`` keeps the data
     └── CommandError                       a command-line argument armlab cannot use
+
+    SimulationInterrupted (KeyboardInterrupt)  Ctrl-C during a run; ``.result`` keeps the data
+                                           (not an ArmlabError: ``except Exception`` must not stop
+                                           a Ctrl-C)
+    CacheWarning (UserWarning)             a damaged or unusable cache entry was discarded
 """
 
 from __future__ import annotations
@@ -43,12 +49,24 @@ class InputError(ArmlabError, ValueError):
     """A value armlab cannot use; the message names the field and says what is wrong."""
 
 
+# Line breaks and other control characters that a file name, a TOML key or a quoted value may
+# carry into a message; escaped so that the message stays one line.
+_CONTROL = {code: f"\\x{code:02x}" for code in (*range(32), 127, 0x85)}
+_CONTROL |= {ord("\n"): "\\n", ord("\r"): "\\r", ord("\t"): "\\t",
+             0x2028: "\\u2028", 0x2029: "\\u2029"}
+
+
+def one_line(text) -> str:
+    """``str(text)`` with line breaks and control characters escaped (``\\n``, ``\\x1b``)."""
+    return str(text).translate(_CONTROL)
+
+
 class FileFieldError(InputError):
-    """A file field that cannot be used; ``str()`` is ``file: field: reason``."""
+    """A file field that cannot be used; ``str()`` is ``file: field: reason``, one line."""
 
     def __init__(self, file, field: str, reason: str):
-        self.file, self.field, self.reason = str(file), field, reason
-        super().__init__(f"{self.file}: {field}: {reason}")
+        self.file, self.field, self.reason = one_line(file), one_line(field), one_line(reason)
+        super().__init__(f"{self.file}: {self.field}: {self.reason}")
 
     def __reduce__(self):
         # Rebuilt from its three parts (not from the message) when it crosses to another process.
@@ -183,6 +201,20 @@ class SimulationDiverged(ArmlabError, RuntimeError):
 def _rebuild(cls, args, keywords):
     """An exception rebuilt in another process from its arguments (``__reduce__``)."""
     return cls(*args, **keywords)
+
+
+class SimulationInterrupted(KeyboardInterrupt):
+    """Ctrl-C stopped a run; ``result`` holds the data up to the last complete step (status
+    ``"interrupted"``).  A KeyboardInterrupt, so that a script stops as it would anyway."""
+
+    def __init__(self, message: str, result):
+        super().__init__(message)
+        self.result = result
+
+
+class CacheWarning(UserWarning):
+    """A cache entry (a compiled kernel, a generated module) was damaged or could not be
+    written; it was discarded and rebuilt, or the work is done without the cache."""
 
 
 class CommandError(ArmlabError):

@@ -11,6 +11,13 @@ import numpy as np
 from armlab.errors import CommandError
 
 
+def add_tip_argument(parser) -> None:
+    """``--tip LINK``: the end-effector link of a URDF/MJCF robot whose tree branches."""
+    parser.add_argument("--tip", metavar="LINK",
+                        help="link (URDF) or body (MJCF) carrying the end effector, for a robot file "
+                             "whose tree branches; moving joints off the chain are locked")
+
+
 def format_table(headers: list[str], rows: list[list[str]], indent: str = "") -> str:
     """Left-aligned plain-text table with a rule under the header."""
     cells = [list(map(str, headers))] + [[str(c) for c in row] for row in rows]
@@ -53,6 +60,9 @@ def parse_vector(text: str, n: int, what: str) -> np.ndarray:
     if len(parts) != n:
         raise CommandError(f"{what}: expected {n} values, got {len(parts)} ({text!r})")
     try:
-        return np.array([evaluate_expression(p, {}) for p in parts])
-    except (ValueError, ZeroDivisionError) as error:
+        values = np.array([evaluate_expression(p, {}) for p in parts])
+    except (ValueError, ArithmeticError) as error:
         raise CommandError(f"{what}: {error}") from error
+    if not np.all(np.isfinite(values)):
+        raise CommandError(f"{what}: expected finite values, got {text!r}")
+    return values

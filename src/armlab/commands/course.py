@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from armlab.commands import add_tip_argument
+
 
 def register(subparsers) -> None:
     parser = subparsers.add_parser(
@@ -10,20 +12,21 @@ def register(subparsers) -> None:
                     "singularities, gains from its dynamics and an environment plane where its "
                     "end effector meets it, and write one scenario file per seed experiment "
                     "(run each with `armlab run FILE`; `armlab report --robot ROBOT` runs them all).")
-    parser.add_argument("robot", metavar="ROBOT", help="bundled robot name or robot file (.toml/.urdf)")
+    parser.add_argument("robot", metavar="ROBOT",
+                        help="bundled or zoo robot name, or robot file (.toml/.urdf/.xml)")
+    add_tip_argument(parser)
     parser.add_argument("--out", default="course", help="output folder (default: course)")
     parser.set_defaults(func=run)
 
 
 def run(args) -> int:
-    from pathlib import Path
 
     from armlab.course import write_course
-    from armlab.robots import bundled_robot_names, load_robot
+    from armlab.robots import load_robot, robot_reference
 
-    robot = load_robot(args.robot)
-    reference = args.robot if args.robot in bundled_robot_names() else str(Path(args.robot).resolve())
-    paths, skipped = write_course(robot, reference, args.out)
+    robot = load_robot(args.robot, tip=args.tip)
+    reference, tip = robot_reference(robot)
+    paths, skipped = write_course(robot, reference, args.out, tip=tip)
     for path in paths:
         print(path)
     for reason in skipped:

@@ -9,7 +9,14 @@ import argparse
 
 import numpy as np
 
-from armlab.commands import CommandError, format_matrix, format_number, format_table, parse_vector
+from armlab.commands import (
+    CommandError,
+    add_tip_argument,
+    format_matrix,
+    format_number,
+    format_table,
+    parse_vector,
+)
 from armlab.commands.robots import DH_HEADERS, dh_rows
 
 SEED_POSE = np.array([0.1, np.pi / 3, 0.1])
@@ -22,6 +29,7 @@ def register(subparsers) -> None:
         description="Print the DH tables of a robot (default: the seed's PRP) from Σ_base and "
                     "from Σ_0, and its forward kinematics T_n^0 and T_n^base at a pose.")
     parser.add_argument("--robot", default="prp", help="bundled robot or robot file (default: prp)")
+    add_tip_argument(parser)
     parser.add_argument("--q", help="joint values, e.g. '0.1, pi/3, 0.1' (default: the seed's "
                                     "pose for the PRP, zeros otherwise)")
     parser.add_argument("--report", action="store_true",
@@ -37,7 +45,7 @@ def run(args) -> int:
     from armlab.kinematics import forward_kinematics
     from armlab.robots import load_robot
 
-    robot = load_robot(args.robot)
+    robot = load_robot(args.robot, tip=args.tip)
     if args.q is not None:
         q = parse_vector(args.q, robot.n, "--q")
     elif robot.n == 3 and [j.kind for j in robot.joints] == ["prismatic", "revolute", "prismatic"]:

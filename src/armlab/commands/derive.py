@@ -2,6 +2,11 @@
 
 from __future__ import annotations
 
+import sys
+import time
+
+from armlab.commands import add_tip_argument
+
 
 def register(subparsers) -> None:
     parser = subparsers.add_parser(
@@ -12,6 +17,7 @@ def register(subparsers) -> None:
                     "A1 kinematics and Jacobians, A2 energies and B(q), A3 Lagrange, C and g, "
                     "A4 Newton–Euler and its identity with Lagrange, A5 operational space.")
     parser.add_argument("robot", metavar="ROBOT", help="bundled robot name or robot file (.toml/.urdf)")
+    add_tip_argument(parser)
     parser.add_argument("--frame", choices=("0", "base"), default="0",
                         help="frame of the kinematic results and task coordinates (default: 0)")
     parser.add_argument("--format", dest="fmt", choices=("text", "latex", "markdown"), default="text",
@@ -20,17 +26,27 @@ def register(subparsers) -> None:
                         help="substitute the parameter values instead of keeping symbols")
     parser.add_argument("--only", choices=("A1", "A2", "A3", "A4", "A5"),
                         help="derive a single assignment")
+    parser.add_argument("--quiet", action="store_true", help="no progress lines and no warnings")
     parser.set_defaults(func=run)
 
 
 def run(args) -> int:
     from armlab.robots import load_robot
 
-    robot = load_robot(args.robot)
+    robot = load_robot(args.robot, tip=args.tip)
     # SymPy (seconds to import) only once the robot file has been read without error.
     from armlab.symbolic import derive, render
 
-    sections = derive(robot, frame=args.frame, numeric=args.numeric, only=args.only)
+    # One assignment at a time, each announced on stderr with the time it took: the symbolic
+    # work grows quickly with the joints (minutes for long chains) and must not look hung.
+    sections = []
+    for key in [args.only] if args.only else ["A1", "A2", "A3", "A4", "A5"]:
+        if not args.quiet:
+            print(f"deriving {key} for {robot.n} joints ...", end="", file=sys.stderr, flush=True)
+        started = time.perf_counter()
+        sections += derive(robot, frame=args.frame, numeric=args.numeric, only=key)
+        if not args.quiet:
+            print(f" {time.perf_counter() - started:.1f} s", file=sys.stderr, flush=True)
     heading = f"{robot.name}: symbolic model" + (" (numeric parameters)" if args.numeric else "")
     print(render(sections, args.fmt, numeric=args.numeric, heading=heading), end="")
     return 0

@@ -44,7 +44,7 @@ def gain_matrix(value, size: int, field: str, *, components=None,
         raise ControllerSpecError(f"{field}: must be finite")
     if not np.allclose(array, array.T):
         raise ControllerSpecError(f"{field}: a gain must be symmetric")
-    smallest = np.linalg.eigvalsh(0.5 * (array + array.T)).min()
+    smallest = np.linalg.eigvalsh(0.5 * array + 0.5 * array.T).min()  # no overflow at 1e308
     if smallest < 0 or (positive_definite and smallest <= 0):
         kind = "positive definite" if positive_definite else "positive semi-definite"
         raise ControllerSpecError(f"{field}: a gain must be {kind} (smallest eigenvalue {smallest:g})")

@@ -212,8 +212,11 @@ class Robot:
     end-effector frame Σ_e seen from the last link frame Σ_n.  ``gravity`` is g_0 in Σ_0
     [m/s²].  ``source`` names the file it was loaded from, ``description`` says what it is,
     ``parameters`` holds the named values of the robot file (L0, m_Link4, …) and ``spec`` the
-    file's raw content, expressions unevaluated, for the symbolic derivations.  ``arrays`` is
-    its :class:`RobotArrays`, derived at construction.
+    file's raw content, expressions unevaluated, for the symbolic derivations.  ``notes`` are
+    one-line remarks of the loader on what it changed from the file (side branches locked,
+    limits read as absent, the package a zoo robot came from); ``tip`` the link (URDF) or body
+    (MJCF) of the file that carries Σ_e ("" for armlab's own files).  ``arrays`` is its
+    :class:`RobotArrays`, derived at construction.
     """
 
     name: str
@@ -226,11 +229,14 @@ class Robot:
     source: str = ""
     parameters: dict = field(default_factory=dict)
     spec: dict = field(default_factory=dict)
+    notes: tuple[str, ...] = ()
+    tip: str = ""
     arrays: RobotArrays = field(init=False, repr=False, compare=False)
 
     def __post_init__(self):
         object.__setattr__(self, "joints", tuple(self.joints))
         object.__setattr__(self, "links", tuple(self.links))
+        object.__setattr__(self, "notes", tuple(self.notes))
         object.__setattr__(self, "gravity", _frozen_array(self.gravity, (3,)))
         object.__setattr__(self, "base", _frozen_array(self.base, (4, 4)))
         object.__setattr__(self, "tool", _frozen_array(self.tool, (4, 4)))
@@ -287,6 +293,43 @@ class Robot:
         links = list(self.links)
         links[index] = replace(links[index], inertial=new_inertial)
         return self.replace(links=tuple(links))
+
+
+def nonfinite_part(robot: Robot) -> tuple[str, int | None] | None:
+    """The first part of ``robot`` whose numbers are not finite, or None.
+
+    The part is ``("gravity" | "base" | "tool", None)``, ``("joint", i)`` (placement, offset,
+    motor, friction; NaN limits — infinite limits mean none) or ``("link", i)`` (mass, centre
+    of mass, inertia in ``robot.arrays``, motor masses lumped).  Values that are finite one by
+    one can still overflow in the derived arrays (an inertia of 1e308 rotated into J_i): the
+    file readers call this last and name the part in their error.
+    """
+    m = robot.arrays
+
+    def finite(*arrays) -> bool:
+        return all(np.all(np.isfinite(a)) for a in arrays)
+
+    derived = [array for name, array in m._asdict().items() if name not in ("q_min", "q_max")]
+    if (finite(robot.gravity, robot.base, robot.tool, *derived)
+            and not np.isnan(np.concatenate([m.q_min, m.q_max])).any()
+            and all(finite(j.before, j.after) for j in robot.joints)):
+        return None  # the usual case, in one pass
+    if not finite(robot.gravity, m.gravity):
+        return "gravity", None
+    if not finite(robot.base, m.base_R, m.base_p):
+        return "base", None
+    for i, joint in enumerate(robot.joints):
+        if not (finite(joint.before, joint.after, m.tree_R[i], m.tree_p[i], m.offset[i],
+                       m.gear_ratio[i], m.rotor_inertia[i], m.viscous[i], m.coulomb[i])
+                and not np.isnan(m.q_min[i]) and not np.isnan(m.q_max[i])):
+            return "joint", i
+    for i, link in enumerate(robot.links):
+        inertial = link.inertial
+        if not finite(inertial.mass, inertial.com, inertial.inertia, m.mass[i], m.com[i], m.inertia[i]):
+            return "link", i
+    if not finite(robot.tool, m.tool_R, m.tool_p):
+        return "tool", None
+    return None
 
 
 def _robot_arrays(robot: Robot) -> RobotArrays:

@@ -10,16 +10,17 @@ symbols.  Every problem raises :class:`RobotFileError` whose message is one line
 from __future__ import annotations
 
 import ast
+import keyword
 import math
 import operator
-import tomllib
 from pathlib import Path
 
 import numpy as np
 
 from armlab.errors import RobotFileError
+from armlab.inputs import read_input_toml
 from armlab.model.inertia import box_inertia, cylinder_inertia, inertia_problem, sphere_inertia, steiner
-from armlab.model.robot import DHRow, Friction, Inertial, Joint, Link, Motor, Robot
+from armlab.model.robot import DHRow, Friction, Inertial, Joint, Link, Motor, Robot, nonfinite_part
 from armlab.spatial import rpy_matrix, skew, transform
 
 _BINARY = {ast.Add: operator.add, ast.Sub: operator.sub, ast.Mult: operator.mul,
@@ -27,6 +28,7 @@ _BINARY = {ast.Add: operator.add, ast.Sub: operator.sub, ast.Mult: operator.mul,
 _UNARY = {ast.UAdd: operator.pos, ast.USub: operator.neg}
 _FUNCTIONS = {"sqrt": math.sqrt, "sin": math.sin, "cos": math.cos, "tan": math.tan}
 _CONSTANTS = {"pi": math.pi}
+_RESERVED = {*_FUNCTIONS, *_CONSTANTS}
 
 
 def axis_alignment(axis) -> np.ndarray:
@@ -47,20 +49,94 @@ def axis_alignment(axis) -> np.ndarray:
     return np.eye(3) + S + S @ S / (1.0 + c)
 
 
+MAX_MAGNITUDE = 1e12
+"""Largest magnitude of a robot file's values (joint limits excepted) in SI units: far beyond
+any manipulator, small enough that the dynamics (products of masses, squared lengths and
+squared rates) cannot overflow."""
+
+MAX_NAME_LENGTH = 1000
+"""Longest name (robot, joint, link, parameter) of a robot file [characters]."""
+
+MAX_EXPRESSION_LENGTH = 1000
+"""Longest expression string of a robot or scenario file [characters]."""
+
+MAX_EXPRESSION_DEPTH = 100
+"""Deepest nesting of operations in an expression (``-(-(-x))`` is 4 deep; a sum of k terms
+is k deep)."""
+
+MAX_EXPONENT = 100
+"""Largest |exponent| of ``**`` in an expression (``10**10**10`` is refused, not computed)."""
+
+_NODES = (ast.Expression, ast.Constant, ast.BinOp, ast.UnaryOp, ast.Name, ast.Call, ast.Load,
+          *_BINARY, *_UNARY)
+
+
+def expression_tree(text) -> ast.Expression:
+    """The syntax tree of an expression string, checked before anything is evaluated.
+
+    Only numbers, names, + − * / **, unary ±, and calls ``f(x)`` of a single argument are
+    allowed, at most :data:`MAX_EXPRESSION_LENGTH` characters and :data:`MAX_EXPRESSION_DEPTH`
+    levels deep, so that walking the tree recursively is safe.  Raises ``ValueError`` saying
+    what is wrong; both the numeric reader and ``armlab.symbolic`` read expressions through it.
+    """
+    if not isinstance(text, str):
+        raise ValueError(f"expected a number or an expression string, got {type(text).__name__}")
+    if len(text) > MAX_EXPRESSION_LENGTH:
+        raise ValueError(f"expression of {len(text)} characters is longer than the "
+                         f"{MAX_EXPRESSION_LENGTH} allowed")
+    try:
+        tree = ast.parse(text.strip(), mode="eval")
+    except (SyntaxError, ValueError, RecursionError, MemoryError):
+        raise ValueError(f"cannot parse expression {text!r}") from None
+    stack = [(tree, 0)]
+    while stack:
+        node, depth = stack.pop()
+        if depth > MAX_EXPRESSION_DEPTH:
+            raise ValueError(f"expression nested more than {MAX_EXPRESSION_DEPTH} levels deep")
+        if not isinstance(node, _NODES) or (isinstance(node, ast.Constant) and (
+                isinstance(node.value, bool) or not isinstance(node.value, (int, float)))):
+            shown = ast.unparse(node) if isinstance(node, ast.expr) else type(node).__name__
+            raise ValueError(f"unsupported expression element {shown[:40]!r} in {text!r} "
+                             "(use numbers, parameter names, + − * / **, sqrt, sin, cos, tan, pi)")
+        if isinstance(node, ast.Call) and (not isinstance(node.func, ast.Name)
+                                           or node.func.id not in _FUNCTIONS):
+            raise ValueError(f"unknown function {ast.unparse(node.func)[:40]!r} "
+                             f"(allowed: {', '.join(sorted(_FUNCTIONS))})")
+        if isinstance(node, ast.Call) and (len(node.args) != 1 or node.keywords):
+            raise ValueError(f"a function call takes one argument, as in sqrt(x), in {text!r}")
+        children = [node.args[0]] if isinstance(node, ast.Call) else ast.iter_child_nodes(node)
+        stack.extend((child, depth + 1) for child in children)
+    return tree
+
+
+def _power(base: float, exponent: float) -> float:
+    if abs(exponent) > MAX_EXPONENT:
+        raise ValueError(f"exponent {exponent:g} is beyond ±{MAX_EXPONENT}")
+    result = base**exponent
+    if isinstance(result, complex):
+        raise ValueError(f"({base:g})**{exponent:g} is not a real number")
+    return result
+
+
 def evaluate_expression(text: str, names: dict[str, float]) -> float:
     """Value of an arithmetic expression over ``names`` (+ − * / **, sqrt/sin/cos/tan, pi).
 
-    Only these operations are accepted: the robot file is data, never code.
+    Only these operations are accepted (see :func:`expression_tree`): the robot file is data,
+    never code.  Raises ``ValueError`` saying what is wrong (also for a division by zero or an
+    overflow); the value may still be ±inf (``1e308*10``), which callers refuse.
     """
 
     def walk(node):
         if isinstance(node, ast.Expression):
             return walk(node.body)
-        if isinstance(node, ast.Constant) and isinstance(node.value, (int, float)):
+        if isinstance(node, ast.Constant):
             return float(node.value)
-        if isinstance(node, ast.BinOp) and type(node.op) in _BINARY:
-            return _BINARY[type(node.op)](walk(node.left), walk(node.right))
-        if isinstance(node, ast.UnaryOp) and type(node.op) in _UNARY:
+        if isinstance(node, ast.BinOp):
+            left, right = walk(node.left), walk(node.right)
+            if isinstance(node.op, ast.Pow):
+                return _power(left, right)
+            return _BINARY[type(node.op)](left, right)
+        if isinstance(node, ast.UnaryOp):
             return _UNARY[type(node.op)](walk(node.operand))
         if isinstance(node, ast.Name):
             if node.id in names:
@@ -68,21 +144,25 @@ def evaluate_expression(text: str, names: dict[str, float]) -> float:
             if node.id in _CONSTANTS:
                 return _CONSTANTS[node.id]
             raise ValueError(f"unknown name {node.id!r}")
-        if isinstance(node, ast.Call) and isinstance(node.func, ast.Name):
-            if node.func.id not in _FUNCTIONS:
-                raise ValueError(f"unknown function {node.func.id!r} "
-                                 f"(allowed: {', '.join(sorted(_FUNCTIONS))})")
-            if len(node.args) != 1 or node.keywords:
-                raise ValueError(f"{node.func.id}() takes one argument")
-            return _FUNCTIONS[node.func.id](walk(node.args[0]))
-        raise ValueError(f"unsupported expression element {type(node).__name__} in {text!r} "
-                         "(use numbers, parameter names, + − * / **, sqrt, sin, cos, tan, pi)")
+        # A call of a known function with one argument (expression_tree allows nothing else).
+        argument = walk(node.args[0])
+        if node.func.id == "sqrt" and argument < 0:
+            raise ValueError(f"sqrt of a negative number ({argument:g})")
+        return _FUNCTIONS[node.func.id](argument)
 
+    tree = expression_tree(text)
     try:
-        tree = ast.parse(text.strip(), mode="eval")
-    except SyntaxError as error:
-        raise ValueError(f"cannot parse expression {text!r}") from error
-    return walk(tree)
+        return walk(tree)
+    except ZeroDivisionError:
+        raise ValueError(f"division by zero in {_shorten(text)}") from None
+    except OverflowError:
+        raise ValueError(f"{_shorten(text)} overflows the range of a float") from None
+
+
+def _shorten(value, limit: int = 60) -> str:
+    """``repr(value)``, cut to ``limit`` characters for a message."""
+    text = repr(value)
+    return text if len(text) <= limit else f"{text[:limit]}…"
 
 
 class _Reader:
@@ -94,28 +174,30 @@ class _Reader:
     def fail(self, field: str, reason: str):
         raise RobotFileError(self.file, field, reason)
 
-    def number(self, value, field: str) -> float:
+    def number(self, value, field: str, bounded: bool = True) -> float:
         if isinstance(value, bool):
             self.fail(field, f"expected a number, got {value!r}")
-        if isinstance(value, (int, float)):
-            result = float(value)
-        elif isinstance(value, str):
-            try:
-                result = evaluate_expression(value, self.names)
-            except (ValueError, ZeroDivisionError, OverflowError) as error:
-                self.fail(field, str(error))
-        else:
+        if not isinstance(value, (int, float, str)):
             self.fail(field, f"expected a number or an expression string, got {type(value).__name__}")
+        try:
+            result = evaluate_expression(value, self.names) if isinstance(value, str) else float(value)
+        except OverflowError:
+            self.fail(field, f"is beyond the range of a float ({_shorten(value)})")
+        except ValueError as error:
+            self.fail(field, str(error))
         if not math.isfinite(result):
-            self.fail(field, f"is not finite ({value!r})")
+            self.fail(field, f"is not finite ({_shorten(value)})")
+        if bounded and abs(result) > MAX_MAGNITUDE:
+            self.fail(field, f"{result:g} is beyond ±{MAX_MAGNITUDE:g}, the largest magnitude of a "
+                             "robot file's value")
         return result
 
-    def vector(self, value, field: str, length: int) -> np.ndarray:
+    def vector(self, value, field: str, length: int, bounded: bool = True) -> np.ndarray:
         if not isinstance(value, list):
             self.fail(field, f"expected a list of {length} numbers, got {type(value).__name__}")
         if len(value) != length:
             self.fail(field, f"expected {length} numbers, got {len(value)}")
-        return np.array([self.number(v, f"{field}[{k}]") for k, v in enumerate(value)])
+        return np.array([self.number(v, f"{field}[{k}]", bounded) for k, v in enumerate(value)])
 
     def matrix(self, value, field: str) -> np.ndarray:
         if not isinstance(value, list) or len(value) != 3:
@@ -123,8 +205,19 @@ class _Reader:
         return np.array([self.vector(row, f"{field}[{k}]", 3) for k, row in enumerate(value)])
 
     def name(self, value, field: str) -> str:
+        """A name: a non-empty single line of text without control characters."""
         if not isinstance(value, str) or not value.strip():
-            self.fail(field, f"expected a non-empty string, got {value!r}")
+            self.fail(field, f"expected a non-empty string, got {_shorten(value)}")
+        if not value.isprintable():
+            self.fail(field, f"must be one line of printable text, got {_shorten(value)}")
+        if len(value) > MAX_NAME_LENGTH:
+            self.fail(field, f"is longer than {MAX_NAME_LENGTH} characters")
+        return value
+
+    def text(self, value, field: str) -> str:
+        """Free text (a description): any string."""
+        if not isinstance(value, str):
+            self.fail(field, f"expected a string, got {type(value).__name__}")
         return value
 
     def table(self, value, field: str) -> dict:
@@ -135,7 +228,8 @@ class _Reader:
     def only(self, table: dict, field: str, allowed: set[str]):
         unknown = sorted(set(table) - allowed)
         if unknown:
-            self.fail(f"{field}.{unknown[0]}" if field else unknown[0],
+            key = unknown[0] if unknown[0].isidentifier() else repr(unknown[0])
+            self.fail(f"{field}.{key}" if field else key,
                       f"unknown field (allowed: {', '.join(sorted(allowed))})")
 
     def pose(self, value, field: str) -> np.ndarray:
@@ -196,8 +290,8 @@ def _inertial(reader: _Reader, table: dict, field: str) -> Inertial:
 def _shape_inertia(reader: _Reader, shape: dict, mass: float, field: str) -> np.ndarray:
     kind = shape.get("type")
     sizes = {"box": {"size"}, "cylinder": {"radius", "length"}, "sphere": {"radius"}}
-    if kind not in sizes:
-        reader.fail(f"{field}.type", f"unknown shape {kind!r} (use box, cylinder or sphere)")
+    if not isinstance(kind, str) or kind not in sizes:
+        reader.fail(f"{field}.type", f"unknown shape {_shorten(kind)} (use box, cylinder or sphere)")
     reader.only(shape, field, {"type", "rpy"} | sizes[kind])
     for key in sorted(sizes[kind]):
         if key not in shape:
@@ -230,7 +324,7 @@ def _joint(reader: _Reader, table: dict, index: int, convention: str) -> tuple[J
     name = reader.name(table.get("name", f"joint{index + 1}"), f"{field}.name")
     kind = table.get("type")
     if kind not in ("revolute", "prismatic"):
-        reader.fail(f"{field}.type", f"unknown joint type {kind!r} (use revolute or prismatic)")
+        reader.fail(f"{field}.type", f"unknown joint type {_shorten(kind)} (use revolute or prismatic)")
     motor_table = reader.table(table.get("motor", {}), f"{field}.motor")
     reader.only(motor_table, f"{field}.motor", {"gear_ratio", "rotor_inertia", "mass"})
     motor = Motor(
@@ -255,7 +349,7 @@ def _joint(reader: _Reader, table: dict, index: int, convention: str) -> tuple[J
             reader.fail(f"{field}.friction.{key}", "must be non-negative")
     limits = (-np.inf, np.inf)
     if "limits" in table:
-        lo, hi = reader.vector(table["limits"], f"{field}.limits", 2)
+        lo, hi = reader.vector(table["limits"], f"{field}.limits", 2, bounded=False)
         if not lo < hi:
             reader.fail(f"{field}.limits", f"lower limit {lo:g} must be below upper limit {hi:g}")
         limits = (lo, hi)
@@ -281,20 +375,37 @@ def _joint(reader: _Reader, table: dict, index: int, convention: str) -> tuple[J
 
 
 def robot_from_dict(data: dict, file: str = "<robot>") -> Robot:
-    """Build a :class:`Robot` from a parsed robot file (see ``docs/robot-files.md``)."""
+    """Build a :class:`Robot` from a parsed robot file (see ``docs/robot-files.md``).
+
+    Every value is checked where it is read; finally the robot's derived arrays
+    (``Robot.arrays``, the transforms and inertials the kernels use) must be finite, which
+    catches values that are finite one by one but overflow together (an inertia of 1e308).
+    """
+    # Overflow is detected by the checks, not reported by NumPy as warnings on the way.
+    with np.errstate(all="ignore"):
+        return _robot(data, str(file))
+
+
+def _robot(data: dict, file: str) -> Robot:
     top = {"name", "description", "provenance", "dh_convention", "gravity", "base", "tool",
            "parameters", "joints"}
     bootstrap = _Reader(file, {})
+    bootstrap.table(data, "")
     bootstrap.only(data, "", top)
     names: dict[str, float] = {}
     parameters = bootstrap.table(data.get("parameters", {}), "parameters")
     reader = _Reader(file, names)
     for key, value in parameters.items():
+        field = f"parameters.{key}"
+        if not key.isidentifier() or keyword.iskeyword(key) or key in _RESERVED:
+            reader.fail(field, "a parameter name must be an identifier (letters, digits, _) other "
+                               f"than a Python keyword or {', '.join(sorted(_RESERVED))}")
+        reader.name(key, field)
         # Parameters may refer to earlier parameters (TOML keeps the file's order).
-        names[key] = reader.number(value, f"parameters.{key}")
+        names[key] = reader.number(value, field)
     convention = data.get("dh_convention", "standard")
     if convention not in ("standard", "modified"):
-        reader.fail("dh_convention", f"unknown convention {convention!r} (use standard or modified)")
+        reader.fail("dh_convention", f"unknown convention {_shorten(convention)} (use standard or modified)")
     joint_tables = data.get("joints")
     if not isinstance(joint_tables, list) or not joint_tables:
         reader.fail("joints", "at least one [[joints]] entry is needed")
@@ -307,27 +418,29 @@ def robot_from_dict(data: dict, file: str = "<robot>") -> Robot:
     gravity = reader.vector(data.get("gravity", [0, 0, -9.81]), "gravity", 3)
     base = reader.pose(data.get("base", {}), "base")
     tool = reader.pose(data.get("tool", {}), "tool")
-    return Robot(
-        name=str(data.get("name", Path(file).stem)),
+    name = reader.name(data.get("name", Path(file).stem or "robot"), "name")
+    description = reader.text(data.get("description", ""), "description")
+    reader.text(data.get("provenance", ""), "provenance")
+    robot = Robot(
+        name=name,
         joints=tuple(j for j, _ in pairs),
         links=tuple(lk for _, lk in pairs),
         gravity=gravity, base=base, tool=tool,
-        description=str(data.get("description", "")),
+        description=description,
         source=str(file), parameters=dict(names), spec=data,
     )
+    part = nonfinite_part(robot)
+    if part is not None:
+        kind, i = part
+        field = {"joint": f"joints[{i}]", "link": f"joints[{i}].link"}.get(kind, kind)
+        reader.fail(field, "its values overflow: the robot's transforms or inertials are not finite")
+    return robot
 
 
 def load_robot_toml(path: str | Path) -> Robot:
-    """Load a TOML robot file; malformed input raises :class:`RobotFileError`."""
-    path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except OSError as error:
-        raise RobotFileError(path, "file", f"cannot be read ({error.strerror})") from error
-    except UnicodeDecodeError:
-        raise RobotFileError(path, "file", "is not UTF-8 text") from None
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as error:
-        raise RobotFileError(path, "syntax", str(error)) from error
+    """Load a TOML robot file; malformed input raises :class:`RobotFileError`.
+
+    The file must be a regular file of at most ``armlab.inputs.TOML_LIMIT`` bytes.
+    """
+    data = read_input_toml(path, RobotFileError)
     return robot_from_dict(data, str(path))

@@ -8,13 +8,15 @@ scenarios`` lists them)::
     description = "What the run shows."
     plant = "prp"                          # robot name or file; the true robot
     plant_link_mass = { link4 = 0.2 }      # optional overrides (Robot.with_link_mass)
+    plant_tip = "tool0"                    # optional: end-effector link of a URDF/MJCF tree
 
     [simulation]                           # keyword arguments of armlab.simulate
     t_final = 10.0                         # [s]
     dt = 0.001                             # [s]
     q0 = [0, 0, 0]
     # qd0, method ("rk4" | "adaptive"), control_period, torque_limit, log_every,
-    # dynamics ("auto" | "closed_form" | "numeric": the plant's forward dynamics)
+    # dynamics ("auto" | "closed_form" | "numeric": the plant's forward dynamics),
+    # joint_limits ("warn" | "stop" | "ignore": declared limits reported or enforced by stops)
 
     [controller]
     type = "joint_pd_gravity"              # a registered controller (armlab.registry)
@@ -53,18 +55,22 @@ from __future__ import annotations
 
 import importlib
 import re
-import tomllib
+import typing
 from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
+from typing import Annotated, Literal
+
+import numpy as np
 
 from armlab.control.adaptive import SlotineLi1DoF
 from armlab.control.base import Controller, Environment
 from armlab.errors import ArmlabError
+from armlab.inputs import read_input_toml
 from armlab.model.robot import Robot
-from armlab.scenarios.tables import ScenarioFileError, build, integer, numbers, robot
+from armlab.scenarios.tables import Condition, ScenarioFileError, build, read, robot
 from armlab.simulation.disturbances import TorqueDisturbance
-from armlab.specialise import choice_problem
+from armlab.specialise import DYNAMICS_CHOICES
 
 # The modules whose classes scenario files name: each registers its own (armlab.registry).
 DECLARING_MODULES = ("armlab.control.joint_space", "armlab.control.adaptive", "armlab.control.task_space",
@@ -73,10 +79,23 @@ DECLARING_MODULES = ("armlab.control.joint_space", "armlab.control.adaptive", "a
 for _module in DECLARING_MODULES:
     importlib.import_module(_module)
 
-SIMULATION_KEYS = {"t_final", "dt", "q0", "qd0", "method", "control_period", "torque_limit",
-                   "log_every", "limit_margin", "max_kinetic_energy", "rtol", "atol", "dynamics"}
-TOP_KEYS = {"title", "assignment", "description", "plant", "plant_link_mass", "simulation",
-            "controller", "disturbance", "environment"}
+_POSITIVE = Condition("positive", lambda value: value > 0)
+_Positive = Annotated[float, _POSITIVE]
+SIMULATION_FIELDS = {
+    "t_final": _Positive, "dt": _Positive, "q0": np.ndarray, "qd0": np.ndarray,
+    "method": Literal["rk4", "adaptive"], "control_period": _Positive,
+    "torque_limit": Annotated[np.ndarray, _POSITIVE], "log_every": Annotated[int, _POSITIVE],
+    "limit_margin": Annotated[float, Condition("≥ 0", lambda value: value >= 0)],
+    "max_kinetic_energy": _Positive, "rtol": _Positive, "atol": _Positive,
+    "dynamics": Literal[DYNAMICS_CHOICES], "joint_limits": Literal["ignore", "warn", "stop"],
+    "max_steps": Annotated[int, _POSITIVE],
+}
+"""The ``[simulation]`` keys (keyword arguments of ``armlab.simulate``), read as annotated."""
+SIMULATION_KEYS = set(SIMULATION_FIELDS)
+PER_JOINT = ("q0", "qd0", "torque_limit")
+"""Simulation keys holding a number (every joint) or one number per joint."""
+TOP_KEYS = {"title", "assignment", "description", "plant", "plant_link_mass", "plant_tip", "simulation",
+            "controller", "disturbance", "environment", "expect"}
 
 __all__ = ["Scenario", "ScenarioFileError", "bundled_scenario_names", "list_scenarios",
            "load_scenario", "load_scenario_file", "scenario_from_table", "scenario_path"]
@@ -97,6 +116,9 @@ class Scenario:
     simulation: dict = field(default_factory=dict)
     source: str = ""
     environment: Environment | None = None
+    expect: Literal["ok", "diverged"] = "ok"
+    """How the run should end: "ok" (to t_final) or "diverged" (an experiment whose point is
+    the divergence); ``armlab run`` exits with 0 when it does (``result.meta["expect"]``)."""
 
     def run(self, *, t_final: float | None = None, method: str | None = None, **overrides):
         """Simulate this scenario (``armlab.simulate``); ``t_final``/``method`` shorten or switch it."""
@@ -109,7 +131,7 @@ class Scenario:
             settings["method"] = method
         settings.update(overrides)
         meta = {"scenario": self.name, "title": self.title, "assignment": self.assignment,
-                "description": self.description, "source": self.source}
+                "description": self.description, "source": self.source, "expect": self.expect}
         try:
             return self._simulate(settings, meta)
         except SimulationError as error:
@@ -141,39 +163,36 @@ class Scenario:
 
 
 def read_scenario_toml(path: Path) -> dict:
-    """The parsed TOML of a scenario file; unreadable or malformed files raise one line."""
-    try:
-        return tomllib.loads(path.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise ScenarioFileError(path, "file", "no such file") from None
-    except UnicodeDecodeError:
-        raise ScenarioFileError(path, "file", "is not UTF-8 text") from None
-    except OSError as error:
-        raise ScenarioFileError(path, "file", f"cannot be read ({error.strerror})") from None
-    except tomllib.TOMLDecodeError as error:
-        raise ScenarioFileError(path, "toml", str(error)) from None
+    """The parsed TOML of a scenario file (a regular file of at most
+    ``armlab.inputs.TOML_LIMIT`` bytes); unreadable or malformed files raise one line."""
+    return read_input_toml(path, ScenarioFileError)
 
 
-def _settings(simulation, path) -> dict:
-    """The checked ``[simulation]`` keyword arguments of ``armlab.simulate``."""
+def _settings(simulation, path, n: int) -> dict:
+    """The checked ``[simulation]`` keyword arguments of ``armlab.simulate`` for a plant of
+    ``n`` joints: each key read by its annotation in :data:`SIMULATION_FIELDS`, per-joint
+    values of length 1 or n, and dt ≤ control_period ≤ t_final."""
     if not isinstance(simulation, dict):
         raise ScenarioFileError(path, "simulation", "expected a table")
     settings = {}
     for key, value in simulation.items():
-        if key not in SIMULATION_KEYS:
+        if key not in SIMULATION_FIELDS:
             raise ScenarioFileError(path, f"simulation.{key}",
                                     f"unknown key (use {', '.join(sorted(SIMULATION_KEYS))})")
-        if key == "dynamics" and choice_problem(value):
-            raise ScenarioFileError(path, f"simulation.{key}", choice_problem(value))
-        if key in ("method", "dynamics"):
-            settings[key] = str(value)
-        elif key == "log_every":
-            settings[key] = integer(value, path, f"simulation.{key}")
-        else:
-            settings[key] = numbers(value, path, f"simulation.{key}")
+        settings[key] = read(SIMULATION_FIELDS[key], value, path, f"simulation.{key}")
+        if key in PER_JOINT and np.ndim(settings[key]) > 0 and np.shape(settings[key]) != (n,):
+            raise ScenarioFileError(path, f"simulation.{key}", f"expected a number or {n} numbers "
+                                    f"(one per joint), got shape {np.shape(settings[key])}")
     for key in ("t_final", "dt", "q0"):
         if key not in settings:
             raise ScenarioFileError(path, f"simulation.{key}", "missing")
+    t_final, dt = settings["t_final"], settings["dt"]
+    if dt > t_final:
+        raise ScenarioFileError(path, "simulation.dt", f"{dt:g} s is longer than t_final = {t_final:g} s")
+    period = settings.get("control_period")
+    if period is not None and not dt <= period <= t_final:
+        raise ScenarioFileError(path, "simulation.control_period", f"{period:g} s must lie between "
+                                f"dt = {dt:g} s and t_final = {t_final:g} s")
     return settings
 
 
@@ -209,17 +228,22 @@ def scenario_from_table(data: dict, path) -> Scenario:
     for key in ("plant", "simulation", "controller"):
         if key not in data:
             raise ScenarioFileError(path, key, "missing")
-    plant = robot(data["plant"], data.get("plant_link_mass", {}), path, "plant")
-    settings = _settings(data["simulation"], path)
-    controller = build(Controller, data["controller"], path, "controller", plant=data["plant"])
+    plant = robot(data["plant"], data.get("plant_link_mass", {}), path, "plant", data.get("plant_tip"))
+    settings = _settings(data["simulation"], path, plant.n)
+    controller = build(Controller, data["controller"], path, "controller", plant=data["plant"],
+                       plant_tip=data.get("plant_tip"))
     disturbance = _disturbance(data.get("disturbance", []), plant, path)
     environment = None
     if "environment" in data:
         environment = build(Environment, data["environment"], path, "environment")
-    return Scenario(name=path.stem, title=str(data.get("title", path.stem)),
-                    assignment=str(data.get("assignment", "")), description=str(data.get("description", "")),
-                    plant=plant, controller=controller, disturbance=disturbance, simulation=settings,
-                    source=str(path), environment=environment)
+    texts = {key: read(str, data.get(key, default), path, key)
+             for key, default in (("title", path.stem), ("assignment", ""), ("description", ""))}
+    expect = "ok"
+    if "expect" in data:
+        expect = read(typing.get_type_hints(Scenario)["expect"], data["expect"], path, "expect")
+    return Scenario(name=path.stem, **texts, expect=expect, plant=plant, controller=controller,
+                    disturbance=disturbance, simulation=settings, source=str(path),
+                    environment=environment)
 
 
 def _bundled_files() -> dict[str, Path]:

@@ -18,8 +18,13 @@ annotation                    what the file writes
                               masses, defaults to the plant
 a class with registered       a table: ``type`` picks the subclass (a registered class
 subclasses                    itself needs no ``type``)
+``Annotated[T, Condition]``    T, which must also meet the condition (``"positive"``)
 anything else                 numbers, arrays or nested arrays of them (expressions allowed)
 ============================  ===========================================================
+
+Every number is finite (NaN and ±inf are refused, so are booleans where a number is
+expected); nested arrays are rectangular and at most :data:`MAX_NESTING` deep; integers are
+at most 2⁵³ in magnitude.
 
 Keys declared as ``poses`` by the class are poses [x, y, z, φ, ϑ, ψ] (Euler angles of the
 table's ``euler``, default ZYZ) split into its position and rotation-matrix fields.  Every
@@ -37,48 +42,91 @@ from pathlib import Path
 import numpy as np
 
 from armlab.errors import ArmlabError, ScenarioFileError
-from armlab.model.robot import Robot
-from armlab.model.toml_io import evaluate_expression
+from armlab.model.robot import Robot, nonfinite_part
+from armlab.model.toml_io import MAX_MAGNITUDE, evaluate_expression
 from armlab.registry import ScenarioType, declared, scenario_types
 from armlab.spatial import euler_matrix
 
+MAX_NESTING = 4
+"""Deepest nesting of arrays a field may have (poses are arrays of arrays: 2)."""
+
+MAX_INTEGER = 2**53
+"""Largest |integer| of a scenario field (every integer up to it is exact as a float)."""
+
+
+def _shorten(value, limit: int = 60) -> str:
+    text = repr(value)
+    return text if len(text) <= limit else f"{text[:limit]}…"
+
 
 def number(value, file, where) -> float:
-    """A number of the file: a TOML number or an arithmetic expression string (never ``eval``)."""
+    """A finite number of the file: a TOML number or an arithmetic expression string (never
+    ``eval``).  Booleans, NaN, ±inf and integers beyond the float range are refused."""
     if isinstance(value, bool):
         raise ScenarioFileError(file, where, "expected a number, got a boolean")
     if isinstance(value, (int, float)):
-        return float(value)
-    if isinstance(value, str):
         try:
-            return evaluate_expression(value, {})
-        except Exception as error:  # any parse problem becomes the file's one-line error
-            raise ScenarioFileError(file, where, f"cannot evaluate {value!r} ({error})") from None
-    raise ScenarioFileError(file, where, f"expected a number, got {value!r}")
+            result = float(value)
+        except OverflowError:
+            raise ScenarioFileError(file, where,
+                                    f"is beyond the range of a float ({_shorten(value)})") from None
+    elif isinstance(value, str):
+        try:
+            result = evaluate_expression(value, {})
+        except (ValueError, ArithmeticError) as error:
+            raise ScenarioFileError(file, where, f"cannot evaluate {_shorten(value)} ({error})") from None
+    else:
+        raise ScenarioFileError(file, where, f"expected a number, got {_shorten(value)}")
+    if not np.isfinite(result):
+        raise ScenarioFileError(file, where, f"must be finite, got {_shorten(value)}")
+    return result
 
 
-def numbers(value, file, where):
-    """Numbers, lists and nested lists of numbers (expressions allowed) → floats/arrays."""
-    if isinstance(value, list):
-        return np.array([numbers(v, file, f"{where}[{i}]") for i, v in enumerate(value)])
-    return number(value, file, where)
+def numbers(value, file, where, depth: int = 0):
+    """Numbers, lists and nested lists of numbers (expressions allowed) → floats/arrays.
+
+    Nested lists must be rectangular (rows of one length) and at most :data:`MAX_NESTING` deep.
+    """
+    if not isinstance(value, list):
+        return number(value, file, where)
+    if depth >= MAX_NESTING:
+        raise ScenarioFileError(file, where, f"arrays nested more than {MAX_NESTING} deep")
+    items = [numbers(v, file, f"{where}[{i}]", depth + 1) for i, v in enumerate(value)]
+    shapes = {np.shape(item) for item in items}
+    if len(shapes) > 1:
+        raise ScenarioFileError(file, where, "expected rows of one length, got shapes "
+                                             f"{', '.join(str(s) for s in sorted(shapes))}")
+    return np.array(items, dtype=float)
 
 
 def integer(value, file, where) -> int:
+    """An integer of the file (a number or expression with an integer value), |i| ≤ 2⁵³."""
     result = number(value, file, where)
     if not result.is_integer():
-        raise ScenarioFileError(file, where, f"expected an integer, got {value!r}")
+        raise ScenarioFileError(file, where, f"expected an integer, got {_shorten(value)}")
+    if abs(result) > MAX_INTEGER:
+        raise ScenarioFileError(file, where, f"integer {result:g} is beyond ±2**53")
     return int(result)
 
 
+class Condition(typing.NamedTuple):
+    """A condition on a field's value, written in its annotation as
+    ``Annotated[float, Condition("positive", lambda v: v > 0)]``; arrays must meet it in every
+    entry.  ``text`` completes "must be …" in the error."""
+
+    text: str
+    test: typing.Callable
+
+
 @functools.lru_cache(maxsize=64)
-def _robot_of_file(text: str, identity: tuple) -> Robot:
-    """The robot of ``text`` read once per version of its file (``identity``: the file's
-    resolved path, modification time and size), since a sweep builds thousands of scenarios
-    from the same robot files; a Robot is frozen, so the copies it hands out are one object."""
+def _robot_of_file(text: str, tip, identity: tuple) -> Robot:
+    """The robot of ``text`` (its ``tip`` link chosen) read once per version of its file
+    (``identity``: the file's absolute path, modification time and size), since a sweep builds
+    thousands of scenarios from the same robot files; a Robot is frozen, so the copies it hands
+    out are one object."""
     from armlab.robots import load_robot
 
-    return load_robot(text)
+    return load_robot(text, tip=tip)
 
 
 @functools.cache
@@ -89,27 +137,30 @@ def _bundled_robots() -> dict[str, Path]:
     return {name: bundled_robot_path(name) for name in bundled_robot_names()}
 
 
-def _load_robot(text: str) -> Robot:
+def _load_robot(text: str, tip=None) -> Robot:
     from armlab.robots import load_robot
 
     path = Path(text) if Path(text).suffix else _bundled_robots().get(text)
     try:
         stat = path.stat()
     except (OSError, AttributeError):
-        return load_robot(text)  # says what is wrong with the name or file
-    return _robot_of_file(text, (str(path.absolute()), stat.st_mtime_ns, stat.st_size))
+        return load_robot(text, tip=tip)  # says what is wrong with the name or file (or loads a zoo arm)
+    return _robot_of_file(text, tip, (str(path.absolute()), stat.st_mtime_ns, stat.st_size))
 
 
-def robot(name, overrides, file, where) -> Robot:
+def robot(name, overrides, file, where, tip=None) -> Robot:
     """The robot ``name`` (bundled name or file, relative to the scenario file) with its link
-    masses overridden by ``overrides`` ({link: mass}, the ``<where>_link_mass`` key)."""
+    masses overridden by ``overrides`` ({link: mass}, the ``<where>_link_mass`` key); ``tip``
+    (the ``<where>_tip`` key) chooses the end-effector link of a URDF/MJCF tree."""
     if not isinstance(name, str):
-        raise ScenarioFileError(file, where, f"expected a robot name or file, got {name!r}")
+        raise ScenarioFileError(file, where, f"expected a robot name or file, got {_shorten(name)}")
+    if tip is not None and not isinstance(tip, str):
+        raise ScenarioFileError(file, f"{where}_tip", f"expected a link name, got {_shorten(tip)}")
     path = Path(name)
     if path.suffix and not path.is_absolute():
         path = Path(file).parent / path
     try:
-        loaded = _load_robot(str(path) if path.suffix else name)
+        loaded = _load_robot(str(path) if path.suffix else name, tip)
     except ArmlabError as error:
         raise ScenarioFileError(file, where, str(error)) from None
     if not isinstance(overrides, dict):
@@ -119,17 +170,23 @@ def robot(name, overrides, file, where) -> Robot:
         if link not in links:
             raise ScenarioFileError(file, f"{where}_link_mass.{link}",
                                     f"no such link in {loaded.name} ({', '.join(links)})")
-        try:
-            loaded = loaded.with_link_mass(link, number(mass, file, f"{where}_link_mass.{link}"))
-        except ValueError as error:
-            raise ScenarioFileError(file, f"{where}_link_mass.{link}", str(error)) from None
+        field = f"{where}_link_mass.{link}"
+        value = number(mass, file, field)
+        if not 0 <= value <= MAX_MAGNITUDE:
+            raise ScenarioFileError(file, field, f"must be a mass from 0 to {MAX_MAGNITUDE:g} kg, "
+                                                 f"got {value:g}")
+        with np.errstate(all="ignore"):  # overflow is reported below, as the robot's
+            loaded = loaded.with_link_mass(link, value)
+        part = nonfinite_part(loaded)
+        if part is not None:
+            raise ScenarioFileError(file, field, f"the {part[0]} values of {loaded.name} overflow")
     return loaded
 
 
 @functools.cache
 def _fields(cls: type) -> dict[str, tuple[object, bool]]:
     """{field name: (annotation, required)} of the fields a constructor of ``cls`` takes."""
-    hints = typing.get_type_hints(cls)
+    hints = typing.get_type_hints(cls, include_extras=True)  # keeps Annotated conditions
     return {f.name: (_without_none(hints[f.name]), f.default is dataclasses.MISSING
                      and f.default_factory is dataclasses.MISSING)
             for f in dataclasses.fields(cls) if f.init}
@@ -144,33 +201,40 @@ def _without_none(hint):
     return hint
 
 
-def read(hint, value, file, where, plant=None):
+def read(hint, value, file, where, plant=None, plant_tip=None):
     """``value`` of the file as the annotation ``hint`` says (see the module docstring)."""
     origin = typing.get_origin(hint)
+    if origin is typing.Annotated:
+        base, *conditions = typing.get_args(hint)
+        result = read(base, value, file, where, plant, plant_tip)
+        for condition in conditions:
+            if isinstance(condition, Condition) and not np.all(condition.test(result)):
+                raise ScenarioFileError(file, where, f"must be {condition.text}, got {_shorten(value)}")
+        return result
     if origin is typing.Literal:
         choices = typing.get_args(hint)
         if not any(type(value) is type(choice) and value == choice for choice in choices):
-            raise ScenarioFileError(file, where, f"{value!r} is not one of "
+            raise ScenarioFileError(file, where, f"{_shorten(value)} is not one of "
                                                  f"{', '.join(str(c) for c in choices)}")
         return value
     if hint is str:
         if not isinstance(value, str):
-            raise ScenarioFileError(file, where, f"expected a string, got {value!r}")
+            raise ScenarioFileError(file, where, f"expected a string, got {_shorten(value)}")
         return value
     if hint is bool:
         if not isinstance(value, bool):
-            raise ScenarioFileError(file, where, f"expected true or false, got {value!r}")
+            raise ScenarioFileError(file, where, f"expected true or false, got {_shorten(value)}")
         return value
     if hint is int:
         return integer(value, file, where)
     if origin is tuple and typing.get_args(hint) == (int, ...):
         if not isinstance(value, list):
-            raise ScenarioFileError(file, where, f"expected an array of integers, got {value!r}")
+            raise ScenarioFileError(file, where, f"expected an array of integers, got {_shorten(value)}")
         return tuple(integer(v, file, f"{where}[{i}]") for i, v in enumerate(value))
     if hint is float:
         return number(value, file, where)
     if isinstance(hint, type) and hint is not object and scenario_types(hint):
-        return build(hint, value, file, where, plant)
+        return build(hint, value, file, where, plant, plant_tip)
     return numbers(value, file, where)
 
 
@@ -181,8 +245,9 @@ def _choose(base: type, table: dict, file, where) -> ScenarioType:
         return declared(base)
     kinds = scenario_types(base)
     kind = table.get("type")
-    if kind not in kinds:
-        raise ScenarioFileError(file, f"{where}.type", f"unknown type {kind!r} (use {', '.join(kinds)})")
+    if not isinstance(kind, str) or kind not in kinds:
+        raise ScenarioFileError(file, f"{where}.type",
+                                f"unknown type {_shorten(kind)} (use {', '.join(kinds)})")
     return kinds[kind]
 
 
@@ -191,7 +256,7 @@ def _split_poses(declaration: ScenarioType, table: dict, file, where) -> dict:
     arguments = {}
     euler = table.get("euler", "zyz")
     if not isinstance(euler, str):
-        raise ScenarioFileError(file, f"{where}.euler", f"expected a string, got {euler!r}")
+        raise ScenarioFileError(file, f"{where}.euler", f"expected a string, got {_shorten(euler)}")
     for key, (position, rotation) in declaration.poses.items():
         if key not in table:
             continue
@@ -211,11 +276,11 @@ def _split_poses(declaration: ScenarioType, table: dict, file, where) -> dict:
     return arguments
 
 
-def build(base: type, table, file, where: str, plant: str | None = None):
+def build(base: type, table, file, where: str, plant: str | None = None, plant_tip: str | None = None):
     """An instance of the registered subclass of ``base`` that ``table`` describes.
 
-    ``where`` names the table in messages ("controller"); ``plant`` is the plant's name,
-    the default of a required ``Robot`` field (a controller's ``model``).
+    ``where`` names the table in messages ("controller"); ``plant`` is the plant's name (and
+    ``plant_tip`` its tip), the default of a required ``Robot`` field (a controller's ``model``).
     """
     if not isinstance(table, dict):
         raise ScenarioFileError(file, where, "expected a table")
@@ -223,7 +288,8 @@ def build(base: type, table, file, where: str, plant: str | None = None):
     fields = _fields(declaration.cls)
     arguments = _split_poses(declaration, table, file, where) if declaration.poses else {}
     # Keys read with another key rather than as a field of their own.
-    companions = {f"{name}_link_mass" for name, (hint, _) in fields.items() if hint is Robot}
+    companions = {f"{name}{suffix}" for name, (hint, _) in fields.items() if hint is Robot
+                  for suffix in ("_link_mass", "_tip")}
     companions |= set(declaration.poses) | ({"euler"} if declaration.poses else set())
     for key, value in table.items():
         if key == "type" or key in companions - set(fields):
@@ -234,19 +300,20 @@ def build(base: type, table, file, where: str, plant: str | None = None):
                                                             f"(use {', '.join(known)})")
         hint, _ = fields[key]
         if hint is not Robot:
-            arguments[key] = read(hint, value, file, f"{where}.{key}", plant)
+            arguments[key] = read(hint, value, file, f"{where}.{key}", plant, plant_tip)
     for name, (hint, required) in fields.items():
         # An optional robot is built when named or when only its masses are overridden (it is
         # then the plant with those masses).
         given = name in table or f"{name}_link_mass" in table
         if hint is Robot and (given or (required and plant is not None)):
+            tip = table.get(f"{name}_tip", None if name in table else plant_tip)
             arguments[name] = robot(table.get(name, plant), table.get(f"{name}_link_mass", {}),
-                                    file, f"{where}.{name}")
+                                    file, f"{where}.{name}", tip)
         if required and name not in arguments:
             raise ScenarioFileError(file, f"{where}.{name}", "missing")
     try:
         built = declaration.cls(**arguments)
         getattr(built, "data", None)  # joint references check their numbers when first asked
-    except (ArmlabError, TypeError, ValueError) as error:
+    except (ArmlabError, TypeError, ValueError, ArithmeticError) as error:
         raise ScenarioFileError(file, where, str(error)) from None
     return built

@@ -14,6 +14,10 @@ import importlib
 
 _HOMES = {"SimulationResult": "armlab.simulation.results", "STATUS": "armlab.simulation.simulator",
           "SimulationDiverged": "armlab.simulation.simulator",
+          "SimulationInterrupted": "armlab.simulation.simulator", "MAX_STEPS": "armlab.simulation.simulator",
+          "MAX_LOG_BYTES": "armlab.simulation.simulator",
+          "ADAPTIVE_STEPS_PER_SECOND": "armlab.simulation.simulator",
+          "ADAPTIVE_MIN_STEPS": "armlab.simulation.simulator",
           "SimulationError": "armlab.simulation.simulator", "simulate": "armlab.simulation.simulator",
           "simulate_batch": "armlab.simulation.simulator"}
 

@@ -68,6 +68,13 @@ Divergence checks after every step: a non-finite state (status 1), a joint beyon
 limits by more than its margin (2), kinetic energy ½ q̇ᵀ B q̇ above a bound (3, checked every
 ``energy_every`` steps), a mass matrix that is not positive definite (4).  The loop stops at
 the first failure and reports the step and the joint.
+
+Stopping from outside (Ctrl-C): the loop reads ``fset[3]`` after every step and stops with
+status 5 once it is not 0.  The simulator runs the loop in a worker thread (it releases the
+GIL) and sets that entry when the main thread receives SIGINT; the data up to the last step
+is then kept as for a diverged run.  The flag is read through the same pointer as the other
+settings after calls through function addresses, which the compiler cannot see into, so the
+read is never hoisted out of the loop; it costs one load and compare per step.
 """
 
 from __future__ import annotations
@@ -394,7 +401,8 @@ def rk4_core(fn, pp, cp, ep, dist, x, work, fset, iset, lim, q_lo, q_hi, out):
     """Fixed-step RK4 closed loop (S3).  Returns (status, rows written, step, joint).
 
     cp, ep: stack addresses of the controller's and environment's parameter tuples;
-    fset = [t0, dt, ke_max]; iset = [n, n_steps, every, log_every, has_env, energy_every,
+    fset = [t0, dt, ke_max, stop] (stop ≠ 0: return status 5 after the current step, see the
+    module); iset = [n, n_steps, every, log_every, has_env, energy_every,
     sampled, signal columns, then the log's layout (:func:`log_row`)]; x (m,) the initial
     state (overwritten); ``work`` scratch.
     """
@@ -443,6 +451,8 @@ def rk4_core(fn, pp, cp, ep, dist, x, work, fset, iset, lim, q_lo, q_hi, out):
                                     (j + 1) % energy_every == 0, sc[0], sc[1])
         if status != 0:
             return status, rows, j + 1, joint
+        if fset[3] != 0.0:
+            return 5, rows, j + 1, -1
     return 0, rows, n_steps, -1
 
 

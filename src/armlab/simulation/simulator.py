@@ -31,6 +31,18 @@ Divergence: a non-finite state, a joint beyond its limits by more than ``limit_m
 range, or kinetic energy above ``max_kinetic_energy`` stops the run; ``SimulationDiverged``
 (with the result up to that point as ``.result``) is raised, or with
 ``on_divergence="return"`` the result is returned with ``status == "diverged"``.
+
+Bounds, checked before a run starts (:data:`MAX_STEPS`, :data:`MAX_LOG_BYTES`): a run of more
+than 10⁹ steps, or whose log would need more than 4 GiB, is refused with the count or the
+size it would need.  The adaptive integrator takes at most ``max_steps`` solver steps
+(default: :data:`ADAPTIVE_STEPS_PER_SECOND` per simulated second, at least
+:data:`ADAPTIVE_MIN_STEPS`; a stiff closed loop — a huge gain — can need millions per
+simulated second, minutes of wall time each): it then stops, with status ``"stopped"`` and
+the data so far, as for a divergence.
+
+Ctrl-C during a run stops it after the current step: ``SimulationInterrupted`` (a
+``KeyboardInterrupt``) carries the result so far, ``status == "interrupted"``.  The compiled
+RK4 loop runs in a worker thread and polls a flag the main thread sets (``armlab.simulation.loop``).
 """
 
 from __future__ import annotations
@@ -40,17 +52,28 @@ import time
 
 import numpy as np
 
+from armlab.caches import repaired
 from armlab.control.base import Controller, Environment, ProtocolError, Signal
 from armlab.dynamics import packed_copy
-from armlab.errors import SimulationDiverged, SimulationError
+from armlab.errors import SimulationDiverged, SimulationError, SimulationInterrupted
 from armlab.kernels.environment import FreeSpaceParams, free_space_law
 from armlab.simulation import loop
 from armlab.simulation.disturbances import encode_disturbances
+from armlab.simulation.joint_limits import annotate, check_mode, joint_stop
 from armlab.simulation.results import SimulationResult
-from armlab.specialise import ClosedFormUnavailable, choice_problem, plant_kernels
+from armlab.simulation.stepping import BUDGET, INTERRUPTED, SOLVERS, run_interruptible, solve_stepwise
+from armlab.specialise import ClosedFormUnavailable, choice_problem, closed_form_status, plant_kernels
 
 STATUS = {1: "non-finite state", 2: "joint limit exceeded", 3: "runaway kinetic energy",
-          4: "mass matrix not positive definite"}
+          4: "mass matrix not positive definite", 5: "interrupted", 6: "step budget exhausted"}
+
+MAX_STEPS = 10**9
+"""Most integration steps of one run (t_final / dt): about ten minutes of RK4 for a small robot."""
+MAX_LOG_BYTES = 4 * 1024**3
+"""Most memory of one run's log (rows × columns × 8 bytes): raise ``log_every`` beyond it."""
+ADAPTIVE_STEPS_PER_SECOND, ADAPTIVE_MIN_STEPS = 10_000, 100_000
+"""Default ``max_steps`` of the adaptive integrator: 10⁴ solver steps per simulated second, at
+least 10⁵ (the bundled scenarios take 10–500 per second; a step costs ~0.1–1 ms of wall time)."""
 
 
 # --------------------------------------------------------------------------- set-up helpers
@@ -74,9 +97,23 @@ def _divergence_limits(plant, limit_margin: float) -> tuple[np.ndarray, np.ndarr
             np.where(np.isfinite(arrays.q_max), arrays.q_max + margin, np.inf))
 
 
+def _check_start(plant, q0) -> None:
+    """A start outside the joint limits is refused before the run (it would "diverge" at its
+    first step): one line naming the joint, its value and its limits."""
+    lo, hi = plant.arrays.q_min, plant.arrays.q_max
+    outside = np.flatnonzero((q0 < lo) | (q0 > hi))
+    if outside.size:
+        i = int(outside[0])
+        raise SimulationError(f"q0: joint {plant.joint_names[i]} = {q0[i]:g} is outside its limits "
+                              f"[{lo[i]:g}, {hi[i]:g}]")
+
+
 def _steps(span: float, dt: float, field: str) -> int:
     if not np.isfinite(span):
         raise SimulationError(f"{field}: must be a finite time, got {span!r}")
+    if span / dt > MAX_STEPS:
+        raise SimulationError(f"{field}: {span:g} s at dt = {dt:g} s is {span / dt:.3g} steps, more "
+                              f"than the {MAX_STEPS:.0e} a run may take (armlab.simulation.MAX_STEPS)")
     count = int(round(span / dt))
     if count < 1 or abs(count * dt - span) > 1e-9 * max(1.0, span):
         raise SimulationError(f"{field}: {span:g} s is not a positive multiple of dt = {dt:g} s")
@@ -88,7 +125,7 @@ class _Setup:
 
     def __init__(self, plant, controller, q0, qd0, t_final, dt, control_period, torque_limit,
                  disturbance, environment, log_every, limit_margin, max_kinetic_energy,
-                 dynamics="auto"):
+                 dynamics="auto", joint_limits="warn"):
         if not isinstance(controller, Controller):
             raise SimulationError(f"controller: {type(controller).__name__} is not an armlab Controller")
         n = plant.n
@@ -122,8 +159,16 @@ class _Setup:
         if not (np.isfinite(limit_margin) and limit_margin >= 0):
             raise SimulationError(f"limit_margin: must be a finite fraction ≥ 0, got {limit_margin!r}")
         self.q_lo, self.q_hi = _divergence_limits(plant, float(limit_margin))
+        _check_start(plant, q0)
         self.ke_max = float(max_kinetic_energy)
-        self.dist = encode_disturbances(disturbance, n)
+        if not self.ke_max > 0:  # NaN would switch the divergence check off without a word
+            raise SimulationError(f"max_kinetic_energy: must be positive [J], got {max_kinetic_energy!r}")
+        # Joint stops (S4) act on the plant like a state-dependent disturbance term.
+        self.joint_limits = check_mode(joint_limits)
+        self.stop = joint_stop(plant, q0, self.dt) if self.joint_limits == "stop" else None
+        terms = [] if disturbance is None else (
+            [disturbance] if hasattr(disturbance, "encode") else list(disturbance))
+        self.dist = encode_disturbances(terms + ([self.stop] if self.stop is not None else []), n)
         self.disturbance = disturbance
         if environment is not None and not isinstance(environment, Environment):
             raise SimulationError(f"environment: {type(environment).__name__} is not an armlab Environment")
@@ -137,6 +182,9 @@ class _Setup:
             self.dynamics, self.forward_dynamics, self.kinetic_energy = plant_kernels(plant, dynamics)
         except ClosedFormUnavailable as error:
             raise SimulationError(f"dynamics: {error}") from None
+        # Why the numeric kernels run where a generated module was on disk (a damaged or
+        # disagreeing module): recorded in the result, never silent.
+        self.fallback = closed_form_status(plant) if self.dynamics == "numeric" != dynamics else ""
         self.law = _compiled(type(controller).law, f"{type(controller).__name__}.law")
         entry = _own_entry(type(controller))
         self.entry = None if entry is None else _compiled(entry, f"{type(controller).__name__}.entry")
@@ -158,16 +206,24 @@ class _Setup:
 
     def outputs(self, rows=None):
         """The flat log of ``rows`` rows (``loop.log_views`` gives its blocks).  Every
-        row the loop reports is written in full, so it need not be zeroed."""
+        row the loop reports is written in full, so it need not be zeroed.  A log larger than
+        :data:`MAX_LOG_BYTES` is refused with the size it would need."""
         rows = self.rows if rows is None else rows
-        columns = loop.log_columns(self.n, self.k, self.layout)
-        return np.empty(rows * columns["h_e"].stop)
+        columns = loop.log_columns(self.n, self.k, self.layout)["h_e"].stop
+        size = rows * columns * 8
+        if size > MAX_LOG_BYTES:
+            raise SimulationError(f"log_every: the log of {rows} rows × {columns} columns would need "
+                                  f"{size / 1024**3:.3g} GiB, more than {MAX_LOG_BYTES / 1024**3:g} GiB "
+                                  "(armlab.simulation.MAX_LOG_BYTES): keep fewer rows (log_every; the "
+                                  "adaptive method logs every dt before thinning), a larger dt or a "
+                                  "shorter t_final")
+        return np.empty(rows * columns)
 
     def views(self, out):
         return loop.log_views(out, self.n, self.k, self.layout)
 
     def settings(self):
-        fset = np.array([0.0, self.dt, self.ke_max])
+        fset = np.array([0.0, self.dt, self.ke_max, 0.0])  # [3]: the stop flag (Ctrl-C)
         iset = np.array([self.n, self.n_steps, self.every, self.log_every,
                          int(self.environment is not None), 10, int(self.sampled), self.sig_width,
                          *self.layout], dtype=np.int64)
@@ -210,7 +266,10 @@ class _Setup:
                 "torque_limit": self.lim.tolist(), "log_every": self.log_every,
                 "disturbance": _describe_terms(self.disturbance),
                 "environment": self.environment.describe() if self.environment is not None else None}
+        if self.fallback:
+            info["dynamics_fallback"] = self.fallback
         info.update(meta or {})
+        annotate(plant, self.joint_limits, o_t, o_q, signals, labels, units, info, self.stop)
         return SimulationResult(t=o_t, q=o_q, qd=o_qd, qdd=o_qdd,
                                 tau=o_tau, z=o_z, signals=signals, labels=labels,
                                 units=units, meta=info, status=status, diagnosis=diagnosis)
@@ -224,6 +283,11 @@ class _Setup:
             what += f" on joint {self.plant.joint_names[joint]}"
         elif status == 3:
             what += f" (above {self.ke_max:g} J)"
+        elif status == INTERRUPTED:
+            return f"simulation interrupted at t = {t:.6g} s (step {step}): the data up to then is kept"
+        elif status == BUDGET:
+            return (f"simulation stopped at t = {t:.6g} s: {what} ({joint} solver steps; the closed "
+                    "loop is stiff — smaller gains, the rk4 method, or a larger max_steps)")
         return f"simulation diverged at t = {t:.6g} s (step {step}): {what}"
 
 
@@ -263,7 +327,10 @@ def _finish(setup, result, status, step, joint, on_divergence):
     if status == 0:
         return result
     message = setup.diagnosis(status, step, joint, step * setup.dt)
-    result = SimulationResult(**{**vars(result), "status": "diverged", "diagnosis": message})
+    kind = {INTERRUPTED: "interrupted", BUDGET: "stopped"}.get(status, "diverged")
+    result = SimulationResult(**{**vars(result), "status": kind, "diagnosis": message})
+    if status == INTERRUPTED:
+        raise SimulationInterrupted(message, result)      # whatever on_divergence: Ctrl-C stops
     if on_divergence == "return":
         return result
     raise SimulationDiverged(message, result)
@@ -274,7 +341,8 @@ def _finish(setup, result, status, step, joint, on_divergence):
 def simulate(plant, controller, *, q0, qd0=None, t_final, dt, method="rk4", control_period=None,
              torque_limit=None, disturbance=None, environment=None, log_every=1,
              limit_margin=0.5, max_kinetic_energy=1e6, rtol=1e-10, atol=1e-12,
-             integrator="DOP853", on_divergence="raise", dynamics="auto", meta=None) -> SimulationResult:
+             integrator="DOP853", on_divergence="raise", dynamics="auto", joint_limits="warn",
+             meta=None, max_steps=None) -> SimulationResult:
     """Simulate ``plant`` under ``controller`` from (q0, qd0) over [0, t_final].
 
     Parameters
@@ -297,7 +365,17 @@ def simulate(plant, controller, *, q0, qd0=None, t_final, dt, method="rk4", cont
         is on disk already — made by an earlier "closed_form" request — else at once the
         RNEA/CRBA kernels), "closed_form" (made now if needed: Lagrange for up to 3 joints, the
         traced kernels beyond) or "numeric" (``armlab.specialise``).
+    joint_limits : "warn" (default: a ``JointLimitWarning`` per joint that leaves its declared
+        limits, the signal ``q_limit_excess`` and ``meta["joint_limits"]``), "stop" (the same,
+        with joint stops: stiff damped unilateral springs, S4) or "ignore"
+        (``armlab.simulation.joint_limits``).
     meta : extra JSON-able entries for ``result.meta`` (scenario name, …).
+    max_steps : most solver steps of ``method="adaptive"`` (default: see the module); beyond
+        them the run stops with
+        ``status == "stopped"`` (raised as ``SimulationDiverged`` unless ``on_divergence="return"``).
+
+    A run of more than :data:`MAX_STEPS` steps or with a log above :data:`MAX_LOG_BYTES` is
+    refused before it starts.  Ctrl-C raises ``SimulationInterrupted`` with ``.result``.
     """
     if method not in ("rk4", "adaptive"):
         raise SimulationError(f"method: {method!r} is not 'rk4' or 'adaptive'")
@@ -306,18 +384,26 @@ def simulate(plant, controller, *, q0, qd0=None, t_final, dt, method="rk4", cont
             raise SimulationError(f"{name}: must be a positive tolerance, got {value!r}")
     if on_divergence not in ("raise", "return"):
         raise SimulationError(f"on_divergence: {on_divergence!r} is not 'raise' or 'return'")
-    setup = _Setup(plant, controller, q0, qd0, t_final, dt, control_period, torque_limit,
-                   disturbance, environment, log_every, limit_margin, max_kinetic_energy, dynamics)
+    # A damaged compile cache met while setting up is discarded and rebuilt (armlab.caches).
+    setup = repaired(_Setup, plant, controller, q0, qd0, t_final, dt, control_period, torque_limit,
+                     disturbance, environment, log_every, limit_margin, max_kinetic_energy, dynamics,
+                     joint_limits)
+    if max_steps is not None and (isinstance(max_steps, bool) or not (
+            isinstance(max_steps, (int, np.integer)) and max_steps >= 1)):
+        raise SimulationError(f"max_steps: must be a positive integer, got {max_steps!r}")
     if method == "rk4":
-        return _run_rk4(setup, controller.params(), meta, on_divergence)
-    return _run_adaptive(setup, controller.params(), meta, on_divergence, rtol, atol, integrator)
+        return repaired(lambda: _run_rk4(setup, controller.params(), meta, on_divergence))
+    if max_steps is None:
+        max_steps = max(ADAPTIVE_MIN_STEPS, ADAPTIVE_STEPS_PER_SECOND * setup.n_steps * setup.dt)
+    return repaired(lambda: _run_adaptive(setup, controller.params(), meta, on_divergence, rtol, atol,
+                                          integrator, int(max_steps)))
 
 
 def _run_rk4(setup, cparams, meta, on_divergence):
     fset, iset = setup.settings()
     out = setup.outputs()
     start = time.perf_counter()
-    status, rows, step, joint = _rk4(setup, cparams, fset, iset, out)
+    status, rows, step, joint = run_interruptible(lambda: _rk4(setup, cparams, fset, iset, out), fset)
     meta = {**(meta or {}), "wall_time": time.perf_counter() - start}
     result = setup.result(setup.views(out), rows, "rk4", meta)
     return _finish(setup, result, status, step, joint, on_divergence)
@@ -331,17 +417,17 @@ def _rk4(setup, cparams, fset, iset, out):
                                out)
 
 
-def _run_adaptive(setup, cparams, meta, on_divergence, rtol, atol, integrator):
-    from scipy.integrate import solve_ivp
-
+def _run_adaptive(setup, cparams, meta, on_divergence, rtol, atol, integrator, max_steps):
+    if integrator not in SOLVERS:
+        raise SimulationError(f"integrator: {integrator!r} is not one of {', '.join(SOLVERS)}")
     n, width = setup.n, setup.sig_width
     fn, pp, work = setup.workspace(cparams)
     cplain, eplain = loop.plain_params(cparams), loop.plain_params(setup.eparams)
     rhs_core, log_core = loop.core_address("rhs"), loop.core_address("log")
     has_env = setup.environment is not None
     xdot = np.zeros_like(setup.x0)
+    out = setup.outputs(setup.n_steps + 1)        # first: it refuses a log that would not fit
     grid = np.arange(setup.n_steps + 1) * setup.dt
-    out = setup.outputs(setup.n_steps + 1)
     start = time.perf_counter()
 
     def rhs(t, x, call_law, z_rate):
@@ -359,46 +445,56 @@ def _run_adaptive(setup, cparams, meta, on_divergence, rtol, atol, integrator):
     spans = [(0, setup.n_steps)] if not setup.sampled else [
         (i, min(i + setup.every, setup.n_steps)) for i in range(0, setup.n_steps, setup.every)]
     zdot_held = np.zeros(setup.k)
-    for first, last in spans:
-        if setup.sampled:
-            if first > 0:
-                x[2 * n:] += setup.every * setup.dt * zdot_held
-            loop.rhs(rhs_core, fn, grid[first], x, pp, cplain, eplain, setup.dist,
-                            has_env, True, 0.0, setup.lim, work, width, xdot)
-            zdot_held = work[loop.zdot_slice(n, setup.k)].copy()
-        solution = solve_ivp(rhs, (grid[first], grid[last]), x, method=integrator, rtol=rtol,
-                             atol=atol, t_eval=grid[first:last + 1],
-                             args=(not setup.sampled, 0.0 if setup.sampled else 1.0))
-        xs = np.ascontiguousarray(solution.y.T)
-        keep = xs.shape[0] if last == setup.n_steps else xs.shape[0] - 1
-        bad, code, where = loop.check_rows(fn, pp, xs[:keep], setup.q_lo, setup.q_hi,
-                                                  setup.ke_max, work)
-        if bad >= 0:
-            status, step, joint, keep = code, first + bad, where, bad
-        loop.log_rows(log_core, fn, grid[first:first + keep],
-                             np.ascontiguousarray(xs[:keep]), pp, cplain, eplain,
-                             setup.dist, has_env, not setup.sampled, setup.lim, work, setup.layout,
-                             out, rows)
-        rows += keep
-        if status == 0 and solution.status != 0:
-            status, step = 1, first + keep
-        if status != 0:
-            break
-        x = xs[-1].copy()
+    steps_left = max_steps
+    try:
+        for first, last in spans:
+            if setup.sampled:
+                if first > 0:
+                    x[2 * n:] += setup.every * setup.dt * zdot_held
+                loop.rhs(rhs_core, fn, grid[first], x, pp, cplain, eplain, setup.dist,
+                                has_env, True, 0.0, setup.lim, work, width, xdot)
+                zdot_held = work[loop.zdot_slice(n, setup.k)].copy()
+            args = (not setup.sampled, 0.0 if setup.sampled else 1.0)
+            xs, solved, used = solve_stepwise(rhs, grid[first], grid[last], x, integrator, rtol, atol,
+                                      grid[first:last + 1], args, steps_left)
+            steps_left -= used
+            xs = np.ascontiguousarray(xs)
+            # A finished span's last point is the next span's first; a stopped span keeps all.
+            keep = xs.shape[0] if (last == setup.n_steps or solved != 0) else xs.shape[0] - 1
+            bad, code, where = loop.check_rows(fn, pp, xs[:keep], setup.q_lo, setup.q_hi,
+                                                      setup.ke_max, work)
+            if bad >= 0:
+                status, step, joint, keep = code, first + bad, where, bad
+            loop.log_rows(log_core, fn, grid[first:first + keep],
+                                 np.ascontiguousarray(xs[:keep]), pp, cplain, eplain,
+                                 setup.dist, has_env, not setup.sampled, setup.lim, work, setup.layout,
+                                 out, rows)
+            rows += keep
+            if status == 0 and solved != 0:
+                status, step = (1 if solved == -1 else solved), first + keep
+                joint = max_steps if solved == BUDGET else -1      # the budget, for the diagnosis
+            if status != 0:
+                break
+            x = xs[-1].copy()
+    except KeyboardInterrupt:
+        # Ctrl-C outside a solver step (the law at a sample, the checks, the logging): the
+        # rows logged so far are kept.
+        status, step, joint = INTERRUPTED, rows, -1
+
     def thin(view):
         return np.ascontiguousarray(view[0:rows:setup.log_every])
 
     thinned = {name: tuple(map(thin, view)) if name == "sig" else thin(view)
                for name, view in setup.views(out).items()}
     meta = {**(meta or {}), "wall_time": time.perf_counter() - start, "integrator": integrator,
-            "rtol": rtol, "atol": atol}
+            "rtol": rtol, "atol": atol, "solver_steps": max_steps - steps_left, "max_steps": max_steps}
     result = setup.result(thinned, thinned["t"].shape[0], "adaptive", meta)
     return _finish(setup, result, status, step, joint, on_divergence)
 
 
 def simulate_batch(plant, controllers, *, q0, qd0=None, t_final, dt, torque_limit=None,
                    disturbance=None, environment=None, log_every=1, limit_margin=0.5,
-                   max_kinetic_energy=1e6, workers=None, dynamics="auto",
+                   max_kinetic_energy=1e6, workers=None, dynamics="auto", joint_limits="warn",
                    meta=None) -> list[SimulationResult]:
     """RK4 runs of many controllers (a gain sweep) in parallel on all cores.
 
@@ -417,7 +513,7 @@ def simulate_batch(plant, controllers, *, q0, qd0=None, t_final, dt, torque_limi
 
     def setup_of(controller):
         return _Setup(plant, controller, q0, qd0, t_final, dt, None, torque_limit, disturbance,
-                      environment, log_every, limit_margin, max_kinetic_energy, dynamics)
+                      environment, log_every, limit_margin, max_kinetic_energy, dynamics, joint_limits)
 
     # The first set-up checks the shared arguments before any run starts; the others are made
     # by the workers, so that this Python work overlaps the other threads' compiled loops.

@@ -33,7 +33,10 @@ compile (~7 s for the Puma560) happen once per robot and machine.  Every module,
 on disk, is checked against the compiled kernels (``armlab.kernels``) at random states before
 it is used in a process (relative agreement 1e-9); one that disagrees, or a robot whose model
 cannot be generated, falls back to the numeric kernels with the reason in
-:func:`closed_form_status`.  The outcome is kept per process by the robot's key, never in the
+:func:`closed_form_status` (a simulation records it in ``result.meta["dynamics_fallback"]``).
+The module's last line is the SHA-256 of the rest: a module found truncated or edited is
+generated again (with a ``CacheWarning``), never imported.  The outcome is kept per process by
+the robot's key, never in the
 robot.
 
 The choice, ``dynamics=``:
@@ -55,11 +58,13 @@ import os
 import sys
 import tempfile
 import threading
+import warnings
 from pathlib import Path
 
 import numpy as np
 
-from armlab.errors import ClosedFormUnavailable
+from armlab.errors import CacheWarning, ClosedFormUnavailable
+from armlab.files import check_writable_folder, write_text
 from armlab.kernels.dynamics import make_workspace, rnea_into
 from armlab.kernels.plant import (
     forward_dynamics_packed,
@@ -71,6 +76,10 @@ from armlab.model.robot import Robot
 
 # Up to this many joints the Lagrange closed form (armlab.symbolic), beyond it the traced one.
 LAGRANGE_MAX_JOINTS = 3
+# Beyond this many joints no module is generated: generating and compiling the traced code
+# grows as n³ (about 2 min and 0.5 GB at 30 joints, 15 min and 2 GB at 60), while the numeric
+# kernels serve any size at once.
+CLOSED_FORM_MAX_JOINTS = 24
 DYNAMICS_CHOICES = ("auto", "closed_form", "numeric")
 # The outcome for each robot key met in this process: its checked module, or why there is none.
 _OUTCOMES: dict = {}
@@ -179,8 +188,10 @@ def _writable_folder() -> Path:
     folder = cache_dir() / "closed_form"
     try:
         folder.mkdir(parents=True, exist_ok=True)
-        (folder / ".write-test").touch()
-    except OSError:
+        check_writable_folder(folder)          # leaves nothing behind
+    except OSError as error:
+        warnings.warn(f"{folder}: cache folder cannot be written ({error.strerror or error}); "
+                      f"using {_private_folder()}", CacheWarning, stacklevel=4)
         folder = _private_folder()
         folder.mkdir(mode=0o700, exist_ok=True)
         if not _is_private(folder):
@@ -198,11 +209,29 @@ def _generate(robot: Robot, key: str, path: Path) -> None:
         from armlab.specialise.traced import traced_source
 
         source = traced_source(robot, key=key)
-    # Written atomically: parallel processes may generate the same module.
-    handle, temporary = tempfile.mkstemp(dir=path.parent, suffix=".tmp")
-    with os.fdopen(handle, "w") as stream:
-        stream.write(source)
-    os.replace(temporary, path)
+    # Written atomically: parallel processes may generate the same module.  The last line holds
+    # the digest of the rest, checked before every import (_intact).
+    body = source if source.endswith("\n") else source + "\n"
+    write_text(path, body + _digest_line(body))
+
+
+_DIGEST = "# armlab-source-sha256: "
+
+
+def _digest_line(body: str) -> str:
+    return f"{_DIGEST}{hashlib.sha256(body.encode('utf-8')).hexdigest()}\n"
+
+
+def _intact(path: Path) -> bool:
+    """Whether the module at ``path`` is complete and unchanged since it was generated: its
+    last line is the SHA-256 of everything before it (a truncated or damaged file is not)."""
+    try:
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError):
+        return False
+    head, _, last = text[:-1].rpartition("\n")
+    body = head + "\n"
+    return text.endswith("\n") and text == body + _digest_line(body) and last.startswith(_DIGEST)
 
 
 def _import(path: Path, name: str):
@@ -267,7 +296,20 @@ def _verify(robot: Robot, module) -> str:
 
 def _load(robot: Robot, key: str, path: Path):
     """The module at ``path`` imported and checked (its numba cache lies beside it), or
-    :class:`ClosedFormUnavailable`; either outcome is kept for ``key``."""
+    :class:`ClosedFormUnavailable`; either outcome is kept for ``key``.  A module that is not
+    intact on disk (truncated, edited: :func:`_intact`) is generated again first, with a
+    :class:`CacheWarning`, never imported."""
+    if not _intact(path):
+        warnings.warn(f"{path}: generated module damaged or incomplete; generating it again",
+                      CacheWarning, stacklevel=3)
+        try:
+            path.unlink(missing_ok=True)
+            _generate(robot, key, path)
+        except Exception as error:  # as for a first generation: say why, fall back
+            first_line = (str(error).strip().splitlines() or [""])[0]
+            _OUTCOMES[key] = reason = (f"no closed form for robot {robot.name!r}: "
+                                       f"{type(error).__name__}: {first_line}")
+            raise ClosedFormUnavailable(reason) from None
     try:
         module = _import(path, _module_name(key))
         reason = _verify(robot, module)
@@ -295,6 +337,12 @@ def closed_form_module(robot: Robot):
             if known is None:
                 try:
                     path = _on_disk(key)
+                    if path is None and robot.n > CLOSED_FORM_MAX_JOINTS:
+                        minutes = 2.0 * (robot.n / 30) ** 3
+                        raise ClosedFormUnavailable(
+                            f"{robot.n} joints, more than the {CLOSED_FORM_MAX_JOINTS} a generated module "
+                            f"is made for (it would take about {minutes:.0f} min to generate and compile); "
+                            "the numeric kernels (dynamics=\"numeric\") serve any size")
                     if path is None:
                         path = _writable_folder() / f"{_module_name(key)}.py"
                         _generate(robot, key, path)

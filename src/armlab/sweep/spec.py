@@ -47,7 +47,6 @@ import hashlib
 import json
 import math
 import re
-import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -347,16 +346,10 @@ def _table(data, name, file) -> dict:
 
 
 def read_sweep_toml(path: Path) -> dict:
-    try:
-        return tomllib.loads(path.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise SweepFileError(path, "file", "no such file") from None
-    except UnicodeDecodeError:
-        raise SweepFileError(path, "file", "is not UTF-8 text") from None
-    except OSError as error:
-        raise SweepFileError(path, "file", f"cannot be read ({error.strerror})") from None
-    except tomllib.TOMLDecodeError as error:
-        raise SweepFileError(path, "toml", str(error)) from None
+    """The parsed TOML of a sweep file (a regular file of bounded size, ``armlab.inputs``)."""
+    from armlab.inputs import read_input_toml
+
+    return read_input_toml(path, SweepFileError)
 
 
 def load_sweep_file(path) -> SweepSpec:

@@ -15,6 +15,8 @@ from fractions import Fraction
 
 import sympy as sp
 
+from armlab.model.toml_io import MAX_EXPONENT, expression_tree
+
 _FUNCTIONS = {"sqrt": sp.sqrt, "sin": sp.sin, "cos": sp.cos, "tan": sp.tan}
 
 
@@ -53,19 +55,26 @@ def exact_entry(value: float) -> sp.Expr:
 def parse_expression(text, names: dict[str, sp.Expr]) -> sp.Expr:
     """SymPy value of a robot-file number or expression string over ``names``.
 
-    Raises ``ValueError`` naming the offending element (the numeric reader has already
-    accepted the file, so this only fires for robots built by hand).
+    The string is checked by the numeric reader's :func:`~armlab.model.toml_io.expression_tree`
+    (grammar, length, depth) before anything is built, and a numeric exponent is bounded as
+    there, so no input makes SymPy compute a huge power.  Raises ``ValueError`` naming the
+    offending element (the numeric reader has already accepted the file, so this only fires
+    for robots built by hand).
     """
     if isinstance(text, bool):
         raise ValueError(f"expected a number, got {text!r}")
-    if isinstance(text, (int, float)):
+    if isinstance(text, int):
+        return sp.Integer(text)
+    if isinstance(text, float):
+        if not math.isfinite(text):
+            raise ValueError(f"expected a finite number, got {text!r}")
         return exact(text)
 
     def walk(node):
         if isinstance(node, ast.Expression):
             return walk(node.body)
-        if isinstance(node, ast.Constant) and isinstance(node.value, (int, float)):
-            return exact(node.value)
+        if isinstance(node, ast.Constant):
+            return sp.Integer(node.value) if isinstance(node.value, int) else exact(node.value)
         if isinstance(node, ast.BinOp):
             left, right = walk(node.left), walk(node.right)
             if isinstance(node.op, ast.Add):
@@ -76,9 +85,10 @@ def parse_expression(text, names: dict[str, sp.Expr]) -> sp.Expr:
                 return left * right
             if isinstance(node.op, ast.Div):
                 return left / right
-            if isinstance(node.op, ast.Pow):
-                return left**right
-        if isinstance(node, ast.UnaryOp) and isinstance(node.op, (ast.UAdd, ast.USub)):
+            if right.is_number and abs(float(right)) > MAX_EXPONENT:
+                raise ValueError(f"exponent {float(right):g} is beyond ±{MAX_EXPONENT}")
+            return left**right
+        if isinstance(node, ast.UnaryOp):
             value = walk(node.operand)
             return -value if isinstance(node.op, ast.USub) else value
         if isinstance(node, ast.Name):
@@ -87,14 +97,10 @@ def parse_expression(text, names: dict[str, sp.Expr]) -> sp.Expr:
             if node.id == "pi":
                 return sp.pi
             raise ValueError(f"unknown name {node.id!r}")
-        if (isinstance(node, ast.Call) and isinstance(node.func, ast.Name)
-                and node.func.id in _FUNCTIONS and len(node.args) == 1 and not node.keywords):
-            return _FUNCTIONS[node.func.id](walk(node.args[0]))
-        raise ValueError(f"unsupported expression element {ast.dump(node)[:40]}")
+        # A call of sqrt, sin, cos or tan with one argument (expression_tree allows no other).
+        return _FUNCTIONS[node.func.id](walk(node.args[0]))
 
-    if not isinstance(text, str):
-        raise ValueError(f"expected a number or an expression string, got {type(text).__name__}")
-    return walk(ast.parse(text.strip(), mode="eval"))
+    return walk(expression_tree(text))
 
 
 def rot_x(angle) -> sp.Matrix:

@@ -19,6 +19,7 @@ from matplotlib import animation  # noqa: E402
 from PIL import Image  # noqa: E402
 
 from armlab.errors import AnimationError  # noqa: E402
+from armlab.files import replacing  # noqa: E402
 from armlab.kinematics import link_frames  # noqa: E402
 from armlab.model.robot import Robot  # noqa: E402
 from armlab.viz.drawing import (  # noqa: E402
@@ -123,16 +124,18 @@ def animate_robot(robot: Robot, t, q, path, *, frame: str = "base", plane: Plane
 
     path.parent.mkdir(parents=True, exist_ok=True)
     try:
-        if suffix == ".gif":
-            frames = list(_frames(fig, ax, artist, clock, times, qs))
-            frames[0].save(path, save_all=True, append_images=frames[1:], duration=int(1000 / fps), loop=0)
-        else:
-            # Frames are grabbed by hand: FuncAnimation would render every frame twice.
-            with writer.saving(fig, str(path), dpi):
-                for time, q_frame in zip(times, qs, strict=True):
-                    artist.update(q_frame)
-                    clock.set_text(_clock(time))
-                    writer.grab_frame()
+        with replacing(path) as temporary:  # atomic: complete or not at all
+            if suffix == ".gif":
+                frames = list(_frames(fig, ax, artist, clock, times, qs))
+                frames[0].save(temporary, format="GIF", save_all=True, append_images=frames[1:],
+                               duration=int(1000 / fps), loop=0)
+            else:
+                # Frames are grabbed by hand: FuncAnimation would render every frame twice.
+                with writer.saving(fig, str(temporary), dpi):
+                    for time, q_frame in zip(times, qs, strict=True):
+                        artist.update(q_frame)
+                        clock.set_text(_clock(time))
+                        writer.grab_frame()
     finally:
         plt.close(fig)
     return path

@@ -30,7 +30,7 @@ HIDDEN_KEYS = {"title", "assignment", "description"}
 # contact): the report lists an assignment's experiments so, then any others by name.
 SEED_ORDER = (
     "a6_pd_online", "a6_pd_none", "a6_pd_desired", "a6_pd_desired_global", "a6_pd_sine", "a6_pd_ramp",
-    "a6_pd_sine_disturbance", "a6_pd_ramp_disturbance",
+    "a6_pd_sine_disturbance", "a6_pd_sine_disturbance_stop", "a6_pd_ramp_disturbance",
     "a7_id_via_points", "a7_id_regulation", "a7_id_mismatch", "a7_id_mismatch_regulation",
     "a7_id_mismatch_whole_model", "a7_id_mismatch_whole_model_regulation",
     "a7_id_high_gain", "a7_id_high_gain_saturated", "a7_id_higher_gain", "a7_id_higher_gain_saturated",
@@ -41,7 +41,7 @@ SEED_ORDER = (
     "a11_compliance", "a11_compliance_diagonal",
     "a12_impedance_regulation", "a12_impedance_tracking",
     "a13_admittance_regulation", "a13_admittance_tracking",
-    "a14_force_inner_position", "a14_force_inner_position_y_only",
+    "a14_force_inner_position", "a14_force_inner_position_stop", "a14_force_inner_position_y_only",
     "a14_force_inner_velocity", "a14_force_inner_velocity_z",
     "a15_parallel_free", "a15_parallel_contact", "a15_parallel_contact_wall", "a15_parallel_outside_image",
 )
@@ -184,10 +184,10 @@ def _course(robot: Robot, folder) -> list:
     import tempfile
 
     from armlab.course import write_course
-    from armlab.robots import bundled_robot_names
+    from armlab.robots import robot_reference
     from armlab.scenarios import load_scenario_file
 
-    reference = robot.name if robot.name in bundled_robot_names() else str(Path(robot.source).resolve())
+    reference, tip = robot_reference(robot)
     folder = Path(folder) if folder is not None else Path(tempfile.mkdtemp(prefix="armlab-course-"))
-    paths, _ = write_course(robot, reference, folder)
+    paths, _ = write_course(robot, reference, folder, tip=tip)
     return [load_scenario_file(path) for path in paths]

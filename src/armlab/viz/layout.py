@@ -323,7 +323,9 @@ def _torque_scope(run: _Run) -> Scope:
             panel.curves.append(("commanded", run.t, result.signals["tau_cmd"][:, k],
                                  dict(color=COMMAND, lw=1.1, ls="--")))
         if "tau_dist" in result.signals:
-            panel.curves.append(("disturbance", run.t, result.signals["tau_dist"][:, k],
+            stops = (result.meta.get("joint_limits") or {}).get("mode") == "stop"
+            panel.curves.append(("disturbance + stop" if stops else "disturbance", run.t,
+                                 result.signals["tau_dist"][:, k],
                                  dict(color="0.45", lw=1.0, ls=":")))
         if limit is not None and np.isfinite(limit[k]):
             if limit[k] > OFF_SCALE * _peak(y for _, _, y, _ in panel.curves):

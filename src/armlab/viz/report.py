@@ -20,6 +20,7 @@ import os
 import threading
 import time
 import traceback
+import warnings
 from dataclasses import replace
 from pathlib import Path
 
@@ -30,8 +31,10 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from armlab.errors import ArmlabError  # noqa: E402
+from armlab.files import write_text  # noqa: E402
 from armlab.model.robot import Robot  # noqa: E402
 from armlab.robots import load_robot  # noqa: E402
+from armlab.simulation.joint_limits import JointLimitWarning, describe_crossing  # noqa: E402
 from armlab.viz import html  # noqa: E402
 from armlab.viz.animation import animate_robot, joint_spans, motion_window  # noqa: E402
 from armlab.viz.comparisons import COMPARISONS, comparison_scope, impedance_scope  # noqa: E402
@@ -211,6 +214,11 @@ def _experiment_html(exp: Experiment) -> str:
         parts.append(f'<p class="diverged">{html.escape(exp.error)}</p>')
     elif result is not None and getattr(result, "status", "ok") != "ok":
         parts.append(f'<p class="diverged">{html.escape(result.diagnosis)}</p>')
+    limits = (getattr(result, "meta", None) or {}).get("joint_limits") or {}
+    for name, crossing in (limits.get("crossed") or {}).items():
+        # A declared joint limit left (or a stop met) is part of what the run shows.
+        line = describe_crossing(exp.robot, name, crossing, limits.get("mode", "warn"))
+        parts.append(f'<p class="diverged">{html.escape(line)}</p>')
     if exp.figures:
         items = [html.figure(html.png_data_uri(data), caption, kind="scope", ident=f"fig-{exp.name}-{scope}")
                  for scope, caption, data in exp.figures]
@@ -275,7 +283,10 @@ def evaluate(exp: Experiment) -> Experiment:
     started = time.perf_counter()
     if exp.result is None and not exp.error:
         try:
-            exp.result = exp.run()
+            with warnings.catch_warnings():
+                # Shown in the report itself, next to the run.
+                warnings.simplefilter("ignore", JointLimitWarning)
+                exp.result = exp.run()
         except ArmlabError as error:
             exp.error = f"{type(error).__name__}: {error}"
             exp.result = getattr(error, "result", None)
@@ -504,15 +515,15 @@ def build_report(robot: str | Robot = "prp", out_dir: str | Path = "report", *, 
         nav.insert(0, ("animation", "animation"))
     if missing:
         sections.append('<section id="missing"><h2>Not in this build</h2><p class="missing">'
-                        f"No runnable derivation or scenario for {robot.name} yet: {', '.join(missing)}."
-                        "</p></section>")
+                        f"No runnable derivation or scenario for {html.escape(robot.name)} yet: "
+                        f"{', '.join(missing)}.</p></section>")
     elapsed = time.perf_counter() - started
     subtitle = [f"robot {robot.name}: {robot.description}" if robot.description else f"robot {robot.name}",
                 f"{len(planned)} scenario runs{' (quick settings)' if quick else ''}; "
                 f"built in {elapsed:.0f} s by armlab report"]
     page = html.document(f"armlab report — {robot.name}", subtitle, nav, "".join(sections))
     path = out_dir / "report.html"
-    path.write_text(page, encoding="utf-8")
+    write_text(path, page)  # atomic: a killed or failed build keeps the previous report
     progress.close(f"wrote {path} ({path.stat().st_size / 1e6:.1f} MB)")
     return path
 

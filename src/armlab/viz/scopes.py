@@ -26,6 +26,7 @@ from matplotlib.figure import Figure  # noqa: E402
 from matplotlib.transforms import blended_transform_factory  # noqa: E402
 
 from armlab.errors import ScopeError  # noqa: E402
+from armlab.files import replacing  # noqa: E402
 from armlab.viz.html import figure_png  # noqa: E402
 from armlab.viz.layout import (  # noqa: E402, F401  (also imported from here by callers)
     ACTUAL,
@@ -324,6 +325,8 @@ def plot_scopes(result, out_dir, formats=FORMATS) -> list[Path]:
         _place_labels(fig, axes)
         for fmt in formats:
             path = out_dir / f"{file_stem(result)}_{scope.name}.{fmt}"
-            fig.savefig(path, dpi=SCOPE_DPI, metadata={"Date": None} if fmt == "svg" else None)
+            with replacing(path) as temporary:      # atomic: complete or not at all
+                fig.savefig(temporary, format=fmt, dpi=SCOPE_DPI,
+                            metadata={"Date": None} if fmt == "svg" else None)
             written.append(path)
     return written
