@@ -187,8 +187,9 @@ scenario = "a7_id_high_gain"
     table = outcome.to_pandas()
     assert list(table["status"]) == ["invalid", "invalid", "invalid", "ok"]
     assert outcome.counts == {"invalid": 3, "ok": 1}
-    assert "controller: kp:" in table["diagnosis"][0] and "positive semi-definite" in table["diagnosis"][0]
+    assert "controller: kp:" in table["diagnosis"][1] and "positive semi-definite" in table["diagnosis"][1]
     assert "simulation.torque_limit: must be positive" in table["diagnosis"][2]
+    assert table["diagnosis"][0].count("\n") == 0 and table["diagnosis"][0]
     assert table[table["status"] == "invalid"][list(METRIC_NAMES)].isna().all().all()
 
 
