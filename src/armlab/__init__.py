@@ -34,6 +34,7 @@ _HOMES = {
     "armlab.simulation": ("SimulationDiverged", "SimulationInterrupted", "simulate", "simulate_batch"),
     "armlab.spatial": ("RepresentationSingularityError",),
     "armlab.references.task": ("ForceReference", "PoseReference"),
+    "armlab.sweep": ("load_sweep", "read_results", "sweep"),
 }
 """Where each public name is defined: module → names."""
 

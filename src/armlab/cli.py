@@ -27,6 +27,7 @@ COMMANDS = (
     "course",
     "run",
     "report",
+    "sweep",
 )
 """Modules of ``armlab.commands``, in the order ``armlab --help`` lists them."""
 

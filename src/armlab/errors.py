@@ -8,7 +8,10 @@ Each class is also the builtin a Python programmer would catch for the same faul
     ├── InputError (ValueError)            a value armlab cannot use; the message names the field
     │   ├── FileFieldError                 … read from a file: ``file: field: reason``
     │   │   ├── RobotFileError             robot TOML / URDF files
-    │   │   └── ScenarioFileError          scenario TOML files
+    │   │   ├── ScenarioFileError          scenario TOML files
+    │   │   └── SweepFileError             sweep TOML files
+    │   ├── SweepStoreError                a sweep's output folder (``folder: reason``)
+    │   ├── FieldPathError                 a sweep's field path that does not fit its scenario
     │   ├── ResultFileError                result files (``file: reason``)
     │   ├── SpecError                      parameters that cannot define the thing asked for
     │   │   ├── ControllerSpecError        gains, options, models of a controller
@@ -76,6 +79,18 @@ class RobotFileError(FileFieldError):
 
 class ScenarioFileError(FileFieldError):
     """A scenario file that cannot be run."""
+
+
+class SweepFileError(FileFieldError):
+    """A sweep file that cannot define a sweep (its scenario, axes, paths or settings)."""
+
+
+class FieldPathError(InputError):
+    """A sweep's field path that does not fit its scenario's tables (the message says why)."""
+
+
+class SweepStoreError(InputError):
+    """A sweep's output folder that cannot be written or resumed; the message names it."""
 
 
 class ResultFileError(InputError):

@@ -22,6 +22,8 @@ def register(subparsers) -> None:
                              "no animation (the numbers are those of the short runs)")
     parser.add_argument("--no-animation", action="store_true", help="leave out the GIF")
     parser.add_argument("--quiet", action="store_true", help="no progress bar and no warnings")
+    parser.add_argument("--sweep", action="append", default=[], metavar="DIR",
+                        help="add the page of the sweep written to DIR by `armlab sweep` (repeatable)")
     parser.set_defaults(func=run)
 
 
@@ -39,6 +41,6 @@ def run(args) -> int:
 
     robot = load_robot(args.robot, tip=args.tip)
     path = build_report(robot, args.out, quick=args.quick, show_progress=not args.quiet,
-                        animation=not (args.no_animation or args.quick))
+                        animation=not (args.no_animation or args.quick), sweeps=args.sweep)
     print(path)
     return 0

@@ -98,7 +98,7 @@ TOP_KEYS = {"title", "assignment", "description", "plant", "plant_link_mass", "p
             "controller", "disturbance", "environment", "expect"}
 
 __all__ = ["Scenario", "ScenarioFileError", "bundled_scenario_names", "list_scenarios",
-           "load_scenario", "load_scenario_file", "scenario_path"]
+           "load_scenario", "load_scenario_file", "scenario_from_table", "scenario_path"]
 
 
 @dataclass(frozen=True)
@@ -213,7 +213,15 @@ def _disturbance(terms, plant: Robot, path) -> tuple:
 def load_scenario_file(path) -> Scenario:
     """Read and check a scenario file (see the module docstring)."""
     path = Path(path)
-    data = read_scenario_toml(path)
+    return scenario_from_table(read_scenario_toml(path), path)
+
+
+def scenario_from_table(data: dict, path) -> Scenario:
+    """The scenario the parsed TOML ``data`` describes; ``path`` names it in messages and
+    anchors relative robot files (a sweep builds each run's scenario from edited tables)."""
+    path = Path(path)
+    if not isinstance(data, dict):
+        raise ScenarioFileError(path, "file", "expected a table")
     unknown = set(data) - TOP_KEYS
     if unknown:
         raise ScenarioFileError(path, sorted(unknown)[0], f"unknown key (use {', '.join(sorted(TOP_KEYS))})")

@@ -118,12 +118,40 @@ class Condition(typing.NamedTuple):
     test: typing.Callable
 
 
+@functools.lru_cache(maxsize=64)
+def _robot_of_file(text: str, tip, identity: tuple) -> Robot:
+    """The robot of ``text`` (its ``tip`` link chosen) read once per version of its file
+    (``identity``: the file's absolute path, modification time and size), since a sweep builds
+    thousands of scenarios from the same robot files; a Robot is frozen, so the copies it hands
+    out are one object."""
+    from armlab.robots import load_robot
+
+    return load_robot(text, tip=tip)
+
+
+@functools.cache
+def _bundled_robots() -> dict[str, Path]:
+    """{name: file} of the robots shipped in the package (fixed while it is installed)."""
+    from armlab.robots import bundled_robot_names, bundled_robot_path
+
+    return {name: bundled_robot_path(name) for name in bundled_robot_names()}
+
+
+def _load_robot(text: str, tip=None) -> Robot:
+    from armlab.robots import load_robot
+
+    path = Path(text) if Path(text).suffix else _bundled_robots().get(text)
+    try:
+        stat = path.stat()
+    except (OSError, AttributeError):
+        return load_robot(text, tip=tip)  # says what is wrong with the name or file (or loads a zoo arm)
+    return _robot_of_file(text, tip, (str(path.absolute()), stat.st_mtime_ns, stat.st_size))
+
+
 def robot(name, overrides, file, where, tip=None) -> Robot:
     """The robot ``name`` (bundled name or file, relative to the scenario file) with its link
     masses overridden by ``overrides`` ({link: mass}, the ``<where>_link_mass`` key); ``tip``
     (the ``<where>_tip`` key) chooses the end-effector link of a URDF/MJCF tree."""
-    from armlab.robots import load_robot
-
     if not isinstance(name, str):
         raise ScenarioFileError(file, where, f"expected a robot name or file, got {_shorten(name)}")
     if tip is not None and not isinstance(tip, str):
@@ -132,7 +160,7 @@ def robot(name, overrides, file, where, tip=None) -> Robot:
     if path.suffix and not path.is_absolute():
         path = Path(file).parent / path
     try:
-        loaded = load_robot(str(path) if path.suffix else name, tip=tip)
+        loaded = _load_robot(str(path) if path.suffix else name, tip)
     except ArmlabError as error:
         raise ScenarioFileError(file, where, str(error)) from None
     if not isinstance(overrides, dict):

@@ -407,7 +407,7 @@ def _run_all(planned: list[Experiment], progress: Progress, workers: int, main_j
 
 def build_report(robot: str | Robot = "prp", out_dir: str | Path = "report", *, quick: bool = False,
                  show_progress: bool = True, experiments=None, animation: bool = True,
-                 jobs: int | None = None, first=None) -> Path:
+                 jobs: int | None = None, first=None, sweeps=()) -> Path:
     """Write ``<out_dir>/report.html`` for ``robot`` and return its path.
 
     Parameters
@@ -422,11 +422,16 @@ def build_report(robot: str | Robot = "prp", out_dir: str | Path = "report", *, 
         ``quick``, whose short runs cost less than starting a worker)
     first : optional callable run here first, once the worker processes are starting (the
         demo prints its A1 tables meanwhile)
+    sweeps : output folders of ``armlab sweep`` runs, each added as a page of its own
     """
     started = time.perf_counter()
     if not isinstance(robot, Robot):
         robot = load_robot(robot)
     out_dir = Path(out_dir)
+    # The sweeps' pages first: a folder that is not a sweep's stops the report before its runs.
+    from armlab.viz.sweeps import sweep_section
+
+    sweep_pages = [(folder, sweep_section(folder, k)) for k, folder in enumerate(sweeps)]
     out_dir.mkdir(parents=True, exist_ok=True)
     planned = (list(experiments) if experiments is not None
                else discover(robot, quick=quick, course_dir=out_dir / "course"))
@@ -512,6 +517,9 @@ def build_report(robot: str | Robot = "prp", out_dir: str | Path = "report", *, 
         sections.append('<section class="assignment" id="other" data-assignment="other">'
                         f"<h2>Other scenarios</h2>{''.join(unnumbered)}</section>")
         nav.append(("other", "other"))
+    for k, (folder, page) in enumerate(sweep_pages):
+        sections.append(page)
+        nav.append((f"sweep{k}", f"sweep {Path(folder).name}"))
     if movie:
         sections.insert(0, movie)
         nav.insert(0, ("animation", "animation"))

@@ -1,0 +1,296 @@
+"""Running a sweep: chunks of runs on local threads or on a Dask cluster, rows to Parquet.
+
+A chunk (``SweepSpec.chunk_runs``) is the unit of work, of scheduling and of storage:
+:func:`run_chunk` is a pure function of (spec, chunk) — each run's values depend on the sweep
+and the run index only — so the table is the same, bit for bit, whichever executor, number of
+workers or order of completion produced it.  The driver keeps a bounded number of chunks in
+flight and writes each finished chunk at once (``armlab.sweep.store``): its memory does not
+grow with the number of runs.
+
+Executors:
+
+* local processes (``processes=N``): a pool of N spawned worker processes, nothing shared;
+  each loads the compiled code from numba's disk cache once.  For many short runs.
+* local threads (default): a thread pool of ``threads`` threads (default: every core).  The compiled
+  loop releases the GIL, so the runs of different threads overlap; each run's set-up (reading
+  its tables, the controller's parameters) is Python and holds it.
+* Dask (``scheduler="tcp://host:8786"`` for a running cluster, or ``workers=N`` to start a
+  local cluster of N single-threaded worker processes): each chunk is a task.  A worker loads
+  the compiled loop and laws from numba's disk cache the first time it needs them and keeps
+  them for every later task.  A task lost with its worker is run again elsewhere by Dask; its
+  chunk is written once, by the driver, when a result arrives.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import sys
+import time
+from dataclasses import dataclass
+
+from armlab.errors import ArmlabError, SweepFileError
+from armlab.sweep.metrics import METRIC_NAMES, measure
+from armlab.sweep.spec import SweepSpec, load_sweep
+from armlab.sweep.store import SweepStore, read_results
+
+
+def run_one(spec: SweepSpec, index: int) -> dict:
+    """The table row of run ``index``: parameters, status, diagnosis and metrics."""
+    from armlab.scenarios import scenario_from_table
+    from armlab.simulation import SimulationDiverged
+
+    values, table = spec.table(index)
+    row = {"run": index, **values, "status": "ok", "diagnosis": "", **dict.fromkeys(METRIC_NAMES, math.nan)}
+    for key, expression in spec.derived:
+        if not math.isfinite(values[key]):
+            return {**row, "status": "invalid",
+                    "diagnosis": f"{spec.source}: derived.{key}: {expression!r} gives no finite number"}
+    try:
+        result = scenario_from_table(table, spec.scenario_file).run()
+    except SimulationDiverged as error:
+        result = error.result
+    except (ArmlabError, ValueError, ArithmeticError) as error:
+        return {**row, "status": "invalid", "diagnosis": " ".join(str(error).split())}
+    row.update(measure(result))
+    row["status"], row["diagnosis"] = result.status, result.diagnosis
+    if spec.signals:
+        row[SIGNALS] = decimated(result, spec.signals, spec.signals_every, index)
+    return row
+
+
+SIGNALS = "__signals__"
+"""The key of a row's (and a chunk's) decimated signals, stored apart from the table."""
+
+
+def decimated(result, names, every: int, index: int) -> dict:
+    """{column: samples} of every ``every``-th sample of the signals ``names`` of a run:
+    ``run``, ``t`` and one column ``<signal>.<label>`` per component (a signal the run did not
+    log, such as ``tau_cmd`` without a torque limit, has no columns)."""
+    import numpy as np
+
+    keep = slice(0, None, every)
+    t = np.asarray(result.t)[keep]
+    columns = {"run": np.full(t.size, index, dtype=np.int64), "t": t}
+    for name in names:
+        data = getattr(result, name) if name in ("q", "qd", "qdd", "tau", "z") else result.signals.get(name)
+        if data is None:
+            continue
+        data = np.asarray(data)[keep]
+        for k, label in enumerate(result.labels.get(name, ())[:data.shape[1]] or range(data.shape[1])):
+            columns[f"{name}.{label}"] = np.ascontiguousarray(data[:, k])
+    return columns
+
+
+def run_chunk(spec: SweepSpec, chunk: int) -> dict[str, list]:
+    """The rows of chunk ``chunk`` as columns ``{name: [values]}`` (a Dask task)."""
+    names = ("run", *spec.parameter_names, "status", "diagnosis", *METRIC_NAMES)
+    columns = {name: [] for name in names}
+    signals = []
+    for index in spec.chunk_runs(chunk):
+        row = run_one(spec, index)
+        for name in names:
+            columns[name].append(row[name])
+        if SIGNALS in row:
+            signals.append(row[SIGNALS])
+    if spec.signals:
+        columns[SIGNALS] = _concatenate(signals)
+    return columns
+
+
+def _concatenate(parts: list[dict]) -> dict:
+    """One column set of the runs' signal columns; a column some runs lack is NaN there."""
+    import numpy as np
+
+    names = list(dict.fromkeys(name for part in parts for name in part))
+    return {name: np.concatenate([part[name] if name in part else np.full(part["t"].size, np.nan)
+                                  for part in parts]) if parts else np.zeros(0) for name in names}
+
+
+@dataclass(frozen=True)
+class SweepOutcome:
+    """What a finished (or interrupted) sweep left in ``folder``."""
+
+    folder: str
+    n_runs: int
+    counts: dict
+    executor: str
+    seconds: float
+
+    def table(self):
+        """The results (``pyarrow.Table``, one row per run, sorted by run)."""
+        return read_results(self.folder)
+
+    def to_pandas(self):
+        return self.table().to_pandas()
+
+
+def _progress(total: int, initial: int, label: str, enabled: bool):
+    """A tqdm bar (rate and ETA) on stderr; a no-op without tqdm or when disabled."""
+    try:
+        from tqdm import tqdm
+    except ImportError:
+        enabled = False
+        tqdm = None
+    if not enabled:
+        class Silent:
+            def update(self, n):
+                pass
+
+            def close(self):
+                pass
+        return Silent()
+    return tqdm(total=total, initial=initial, unit="run", desc=label, file=sys.stderr, smoothing=0.1)
+
+
+def _local(spec, store, pending, threads, bar, processes=None) -> dict:
+    """Chunks on a local pool: ``processes`` worker processes (spawned, so each starts clean
+    and loads the compiled code from the disk cache once) if given, else ``threads`` threads."""
+    import multiprocessing
+    from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, ThreadPoolExecutor, wait
+
+    counts = {}
+    if processes:
+        threads = processes
+        pool = ProcessPoolExecutor(max_workers=processes, mp_context=multiprocessing.get_context("spawn"))
+    else:
+        threads = threads or os.cpu_count() or 1
+        pool = ThreadPoolExecutor(max_workers=threads)
+    with pool:
+        queue, running = list(reversed(pending)), set()
+        try:
+            while queue or running:
+                while queue and len(running) < 2 * threads:
+                    chunk = queue.pop()
+                    future = pool.submit(run_chunk, spec, chunk)
+                    future.chunk = chunk
+                    running.add(future)
+                done, running = wait(running, return_when=FIRST_COMPLETED)
+                for future in done:
+                    _store(store, future.chunk, future.result(), counts, bar)
+        except BaseException:
+            for future in running:
+                future.cancel()
+            raise
+    return counts
+
+
+def _store(store, chunk, columns, counts, bar):
+    store.write(chunk, columns, columns.pop(SIGNALS, None))
+    for status in columns["status"]:
+        counts[status] = counts.get(status, 0) + 1
+    bar.update(len(columns["run"]))
+
+
+def _dask_client(scheduler, workers, source):
+    try:
+        from distributed import Client, LocalCluster
+    except ImportError:
+        raise SweepFileError(source, "cluster", "a Dask executor needs dask.distributed "
+                                                 "(pip install 'armlab[cluster]')") from None
+    if scheduler:
+        return Client(scheduler, timeout="20s"), None
+    cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                           dashboard_address=":0")
+    return Client(cluster), cluster
+
+
+def _same(value):
+    return value
+
+
+def _dask(spec, store, pending, client, bar) -> dict:
+    from distributed import as_completed
+
+    counts = {}
+    # The sweep as the result of a task rather than scattered data: a worker that dies with
+    # it leaves the scheduler able to make it again (scattered data would be lost for good,
+    # and with it every task that needs it).
+    spec_future = client.submit(_same, spec, key=f"armlab-sweep-spec-{spec.fingerprint()}-{time.time_ns()}")
+    slots = max(2, 2 * sum(client.nthreads().values()))
+    queue = list(reversed(pending))
+    submitted = {}
+
+    def submit():
+        chunk = queue.pop()
+        future = client.submit(run_chunk, spec_future, chunk, pure=False,
+                               key=f"armlab-sweep-{spec.fingerprint()}-{chunk}-{time.time_ns()}")
+        submitted[future.key] = chunk
+        return future
+
+    stream = as_completed([submit() for _ in range(min(slots, len(queue)))])
+    for future in stream:
+        chunk = submitted.pop(future.key)
+        _store(store, chunk, future.result(), counts, bar)
+        future.release()
+        if queue:
+            stream.add(submit())
+    return counts
+
+
+def sweep(spec, out, *, threads: int | None = None, processes: int | None = None,
+          workers: int | None = None, scheduler: str | None = None, overwrite: bool = False,
+          progress: bool = False,
+          log=None) -> SweepOutcome:
+    """Run the sweep ``spec`` (a :class:`SweepSpec` or a sweep file) into the folder ``out``.
+
+    Executor: ``scheduler`` (a Dask scheduler address) or ``workers`` (start a local Dask
+    cluster of that many processes), else — and unless the file's ``[cluster]`` table says
+    otherwise — ``processes`` local worker processes, or ``threads`` local threads (default:
+    every core).  Chunks already in ``out``
+    from an interrupted run of the same sweep are kept (``overwrite`` starts afresh).
+    ``progress`` shows a progress bar on stderr; ``log`` (a text stream) gets the executor's
+    description and the Dask dashboard address.
+    """
+    if not isinstance(spec, SweepSpec):
+        spec = load_sweep(spec)
+    cluster = dict(spec.cluster)
+    if scheduler is None and workers is None and threads is None and processes is None:
+        scheduler, workers = cluster.get("scheduler"), cluster.get("workers")
+        threads, processes = cluster.get("threads"), cluster.get("processes")
+    for name, value in (("threads", threads), ("processes", processes), ("workers", workers)):
+        if value is not None and (isinstance(value, bool) or not isinstance(value, int) or value < 1):
+            raise SweepFileError(spec.source, f"cluster.{name}",
+                                 f"expected a positive integer, got {value!r}")
+    if scheduler is not None and not isinstance(scheduler, str):
+        raise SweepFileError(spec.source, "cluster.scheduler", f"expected an address, got {scheduler!r}")
+    store = SweepStore(out, spec)
+    completed = store.open(overwrite=overwrite)
+    pending = [c for c in range(spec.n_chunks) if c not in completed]
+    done_runs = sum(len(spec.chunk_runs(c)) for c in completed)
+    start = time.perf_counter()
+    if not pending:
+        executor, counts = "nothing left to run", {}
+    elif scheduler or workers:
+        client, local_cluster = _dask_client(scheduler, workers, spec.source)
+        executor = f"dask {client.scheduler.address}"
+        try:
+            if log is not None:
+                print(f"{spec.name}: {spec.n_runs} runs in {spec.n_chunks} chunks on {executor} "
+                      f"({sum(client.nthreads().values())} worker threads); "
+                      f"dashboard {client.dashboard_link}",
+                      file=log, flush=True)
+            bar = _progress(spec.n_runs, done_runs, spec.name, progress)
+            try:
+                counts = _dask(spec, store, pending, client, bar)
+            finally:
+                bar.close()
+        finally:
+            client.close()
+            if local_cluster is not None:
+                local_cluster.close()
+    else:
+        executor = (f"{processes} local processes" if processes
+                    else f"{threads or os.cpu_count()} local threads")
+        if log is not None:
+            print(f"{spec.name}: {spec.n_runs} runs in {spec.n_chunks} chunks on {executor}", file=log,
+                  flush=True)
+        bar = _progress(spec.n_runs, done_runs, spec.name, progress)
+        try:
+            counts = _local(spec, store, pending, threads, bar, processes)
+        finally:
+            bar.close()
+    if completed:
+        counts["resumed"] = done_runs
+    return SweepOutcome(folder=str(out), n_runs=spec.n_runs, counts=counts, executor=executor,
+                        seconds=time.perf_counter() - start)

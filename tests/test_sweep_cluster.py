@@ -1,0 +1,99 @@
+"""Sweeps on a real ``dask.distributed`` cluster of two worker processes on this machine.
+
+Needs the ``cluster`` extra (``pip install 'armlab[cluster]'``: dask[distributed]); skipped
+with a message without it.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import threading
+import time
+from pathlib import Path
+
+import pytest
+
+pytest.importorskip("distributed", reason="dask.distributed is not installed (the 'cluster' extra)")
+pd = pytest.importorskip("pandas")
+pytest.importorskip("pyarrow")
+
+from distributed import Client, LocalCluster  # noqa: E402
+
+from armlab.sweep import load_sweep_file, read_results, sweep  # noqa: E402
+
+SRC = Path(__file__).resolve().parents[1] / "src"
+
+SWEEP = """
+scenario = "a7_id_high_gain"
+chunk_size = {chunk}
+[set]
+"simulation.t_final" = {t_final}
+[grid]
+omega_n = {{ linspace = [5, 40, {count}] }}
+"simulation.torque_limit" = {{ values = [20, 1e6] }}
+[derived]
+"controller.kp" = "omega_n**2"
+"controller.kd" = "2*omega_n"
+"""
+
+
+@pytest.fixture(scope="module")
+def cluster():
+    # The worker processes import armlab as this process does.
+    os.environ["PYTHONPATH"] = os.pathsep.join([str(SRC), *filter(None, [os.environ.get("PYTHONPATH")])])
+    with LocalCluster(n_workers=2, processes=True, threads_per_worker=1, dashboard_address=":0") as local:
+        yield local
+
+
+def spec_of(tmp_path, name, chunk=3, t_final=0.05, count=6):
+    path = tmp_path / f"{name}.toml"
+    path.write_text(SWEEP.format(chunk=chunk, t_final=t_final, count=count), encoding="utf-8")
+    return load_sweep_file(path)
+
+
+def test_dask_table_equals_the_thread_pool_table(tmp_path, cluster):
+    threads = sweep(spec_of(tmp_path, "threads", chunk=5), tmp_path / "threads", threads=2)
+    dask = sweep(spec_of(tmp_path, "dask", chunk=2), tmp_path / "dask", scheduler=cluster.scheduler_address)
+    assert dask.executor.startswith("dask ") and dask.counts == threads.counts == {"ok": 12}
+    pd.testing.assert_frame_equal(read_results(dask.folder).to_pandas(),
+                                  read_results(threads.folder).to_pandas(),
+                                  check_exact=True)
+
+
+def test_a_worker_killed_mid_sweep_loses_no_run(tmp_path, cluster):
+    spec = spec_of(tmp_path, "killed", chunk=1, t_final=0.6, count=12)
+    reference = read_results(sweep(spec, tmp_path / "reference", threads=2).folder).to_pandas()
+    out = tmp_path / "out"
+    with Client(cluster) as client:
+        victim = next(iter(client.run(os.getpid).values()))
+    outcome, failure = [], []
+
+    def driver():
+        try:
+            outcome.append(sweep(spec, out, scheduler=cluster.scheduler_address))
+        except BaseException as error:  # reported by the assertion below
+            failure.append(error)
+
+    thread = threading.Thread(target=driver)
+    thread.start()
+    deadline = time.monotonic() + 240
+    while len(list((out / "runs").glob("part-*.parquet"))) < 2 and time.monotonic() < deadline:
+        time.sleep(0.01)
+    written_before = len(list((out / "runs").glob("part-*.parquet")))
+    os.kill(victim, signal.SIGKILL)
+    thread.join(timeout=600)
+    assert not failure, failure
+    assert written_before < spec.n_chunks, "the worker was killed after the sweep had finished"
+    table = read_results(out).to_pandas()
+    assert list(table["run"]) == list(range(spec.n_runs))
+    pd.testing.assert_frame_equal(table, reference, check_exact=True)
+
+
+def test_benchmark_agreement_includes_dask():
+    import sys
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+    import bench_sweep
+
+    assert bench_sweep.check_agreement(runs=4) == ["1 thread", "threads", "dask"]
