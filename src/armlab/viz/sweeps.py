@@ -28,6 +28,7 @@ from matplotlib.figure import Figure  # noqa: E402
 from matplotlib.ticker import FormatStrFormatter  # noqa: E402
 
 from armlab.errors import SweepFileError  # noqa: E402
+from armlab.files import replacing  # noqa: E402
 from armlab.sweep.metrics import METRICS  # noqa: E402
 
 UNITS = dict(METRICS)
@@ -250,7 +251,8 @@ def plot_sweep(spec, folder) -> list[Path]:
     for i, plot in enumerate(plots):
         fig = DRAW[plot["kind"]](spec, valid if len(valid) else frame, plot)
         path = out / f"{spec.name}-{i}-{plot['kind']}.png"
-        fig.savefig(path)
+        with replacing(path) as temporary:      # atomic: complete or not at all
+            fig.savefig(temporary, format="png")
         written.append(path)
     return written
 
