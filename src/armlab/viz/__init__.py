@@ -1,7 +1,8 @@
 """Pictures of armlab results: scope plots, robot drawings and animations, the HTML report.
 
 This package sits at the edge: it imports the library, the library never imports it.
-Everything renders off-screen (matplotlib's Agg backend).
+The figures use whatever matplotlib backend the user chose (the command line picks Agg);
+file writers (animations) draw on their own Agg canvas.
 
 * :func:`plot_scopes` — the scope figures of a SimulationResult as PNG/SVG files;
 * :func:`draw_robot` — the robot with its links and frames Σ_base, Σ_0 … Σ_e;

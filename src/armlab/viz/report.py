@@ -22,28 +22,25 @@ import time
 import traceback
 from pathlib import Path
 
-import matplotlib
+import matplotlib.pyplot as plt
+import numpy as np
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-
-from armlab.errors import ArmlabError  # noqa: E402
-from armlab.model.robot import Robot  # noqa: E402
-from armlab.robots import load_robot  # noqa: E402
-from armlab.viz import html  # noqa: E402
-from armlab.viz.animation import animate_robot, joint_spans, motion_window  # noqa: E402
-from armlab.viz.drawing import draw_robot  # noqa: E402
-from armlab.viz.experiments import (  # noqa: E402, F401 — ReportError, assignment_number: public here too
+from armlab.errors import ArmlabError
+from armlab.model.robot import Robot
+from armlab.robots import load_robot
+from armlab.viz import html
+from armlab.viz.animation import animate_robot, joint_spans, motion_window
+from armlab.viz.drawing import draw_robot
+from armlab.viz.experiments import (  # noqa: F401 — ReportError, assignment_number: public here too
     Experiment,
     ReportError,
     assignment_number,
     discover,
     experiment_from_scenario,
 )
-from armlab.viz.metrics import Metric, measure  # noqa: E402
-from armlab.viz.progress import Progress  # noqa: E402
-from armlab.viz.scopes import SCOPE_DPI, scope_layout, scope_png  # noqa: E402
+from armlab.viz.metrics import Metric, measure
+from armlab.viz.progress import Progress
+from armlab.viz.scopes import SCOPE_DPI, scope_layout, scope_png
 
 ASSIGNMENTS = {
     1: "Kinematics: DH tables, direct and inverse kinematics, Jacobians",
