@@ -221,6 +221,12 @@ class Controller(abc.ABC):
         """The logged signals written into ``signals_out``, in order."""
         return ()
 
+    def _repr_html_(self) -> str:
+        """The controller in a notebook: its law, gains, model and signals."""
+        from armlab.display import controller_html
+
+        return controller_html(self)
+
     def describe(self) -> dict:
         """Plain, JSON-able description of the controller (stored in ``SimulationResult.meta``)."""
         out = {"type": type(self).__name__}

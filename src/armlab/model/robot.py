@@ -247,6 +247,12 @@ class Robot:
     def __eq__(self, other):
         return self is other
 
+    def _repr_html_(self) -> str:
+        """The robot in a notebook: its joint table, links, parameters, provenance."""
+        from armlab.display import robot_html
+
+        return robot_html(self)
+
     @property
     def n(self) -> int:
         """Number of joints (degrees of freedom)."""

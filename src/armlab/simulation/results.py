@@ -66,6 +66,12 @@ class SimulationResult:
     status: str = "ok"
     diagnosis: str = ""
 
+    def _repr_html_(self) -> str:
+        """The result in a notebook: a summary and its first scope as an inline PNG."""
+        from armlab.viz.notebook import result_html
+
+        return result_html(self)
+
     @property
     def n(self) -> int:
         return self.q.shape[1]

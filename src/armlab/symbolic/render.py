@@ -7,12 +7,15 @@ values are shown as decimals.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import sympy as sp
 from sympy.printing.conventions import split_super_sub
 from sympy.printing.mathml import mathml
 from sympy.printing.pretty.pretty_symbology import pretty_symbol
 
-from armlab.symbolic.sections import Section
+if TYPE_CHECKING:  # a section displays itself with this module's printers
+    from armlab.symbolic.sections import Section
 
 FORMATS = ("text", "latex", "markdown")
 
