@@ -205,6 +205,11 @@ class Controller(abc.ABC):
     def params(self) -> tuple:
         """The NamedTuple of plain arrays passed to ``law`` as ``params`` (module docstring)."""
 
+    def law_function(self):
+        """The law the simulator runs: the class's ``law`` (a controller holding its law as a
+        field, ``armlab.control.function.FunctionController``, returns that one)."""
+        return type(self).law
+
     def initial_state(self) -> np.ndarray:
         """z(0), (k,); stateless controllers have k = 0."""
         return np.zeros(0)

@@ -83,7 +83,7 @@ class LawEvaluator:
         if not isinstance(controller, Controller):
             raise ProtocolError(f"controller: {type(controller).__name__} is not an armlab Controller")
         self.controller = controller
-        self.law = type(controller).law
+        self.law = controller.law_function()
         self.params = controller.params()
         self.n = controller.n
         self.k = np.asarray(controller.initial_state()).size
