@@ -48,7 +48,8 @@ def best_of(controller, repeats: int) -> float:
 def main() -> None:
     gains = Gains(Q_DES, KP, KD)
     print(f"{'law (PRP, 10 s at 1 kHz, RK4)':34s} {'Python [s]':>11s} {'njit [s]':>10s} {'factor':>8s}")
-    for name, law, params in (("short form tau = law(t, q, qd)", short, ()), ("full protocol form", full, gains)):
+    cases = (("short form tau = law(t, q, qd)", short, ()), ("full protocol form", full, gains))
+    for name, law, params in cases:
         python = best_of(FunctionController(ROBOT, law, parameters=params), 1)
         compiled = best_of(FunctionController(ROBOT, njit(law), parameters=params), 5)
         print(f"{name:34s} {python:11.3f} {compiled:10.4f} {python / compiled:8.0f}")
