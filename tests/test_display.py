@@ -110,3 +110,11 @@ def test_repr_html_is_what_ipython_displays(name):
     formatter = ipython.HTMLFormatter()
     obj = armlab.load_robot("prp") if name == "robot" else load_scenario("a6_pd_online").controller
     assert formatter(obj) == obj._repr_html_()
+
+
+def test_the_plain_text_forms_are_one_line_not_a_dump():
+    robot = armlab.load_robot("prp")
+    assert repr(robot).startswith("Robot('prp', 3 joints PRP, source=") and "\n" not in repr(robot)
+    result = load_scenario("a6_pd_online").run(t_final=0.01)
+    assert repr(result) == ("SimulationResult(11 samples, t = 0 … 0.01 s, 3 joints, status='ok', "
+                            "signals=['q_des', 'q_err', 'g_comp'])")

@@ -65,6 +65,13 @@ def test_a_run_is_animated_frame_by_frame_with_play_pause_and_a_slider(contact_r
     assert all(r is not None and r[1] > r[0] for r in ranges)
 
 
+def test_a_notebook_shows_the_view_with_plotly_inside_and_no_cdn():
+    bundle = view3d(armlab.load_robot("prp"))._repr_mimebundle_()
+    assert list(bundle) == ["text/html"]
+    assert "Plotly.newPlot" in bundle["text/html"] and len(bundle["text/html"]) > 3_000_000
+    assert not re.findall(r"<script[^>]*\bsrc=", bundle["text/html"])  # no MathJax, no plotly CDN
+
+
 def test_the_html_file_carries_plotly_and_asks_for_nothing(contact_run, tmp_path):
     path = write_view3d(contact_run, tmp_path / "view.html")
     text = path.read_text(encoding="utf-8")

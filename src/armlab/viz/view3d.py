@@ -50,6 +50,31 @@ def _plotly():
     return go
 
 
+_FIGURE_CLASS = []
+
+
+def _figure_class(go):
+    """``plotly.graph_objects.Figure`` whose notebook display is self-contained: plotly.js
+    inline and no MathJax (plotly's own notebook output loads MathJax from a CDN), so the view
+    works without a network, in Jupyter and in the HTML nbconvert writes."""
+    if not _FIGURE_CLASS:
+        class View3D(go.Figure):
+            def _repr_mimebundle_(self, include=None, exclude=None, **kwargs):
+                html = self.to_html(include_plotlyjs=True, include_mathjax=False, full_html=False,
+                                    auto_play=False, default_height=560, config={"displaylogo": False})
+                return {"text/html": html}
+
+            def _ipython_display_(self):
+                # plotly's own hook would show the figure through its renderers (MathJax from
+                # a CDN, or a JSON mimetype that exported HTML cannot show).
+                from IPython.display import display
+
+                display(self._repr_mimebundle_(), raw=True)
+
+        _FIGURE_CLASS.append(View3D)
+    return _FIGURE_CLASS[0]
+
+
 def _triangles(faces) -> tuple[np.ndarray, np.ndarray]:
     """Vertices (V, 3) and triangles (T, 3) of polygons ``faces`` (each (k, 3), convex): each
     face as a fan from its first vertex."""
@@ -155,7 +180,7 @@ def view3d(subject, q=None, *, robot=None, frame: str = "base", plane: Plane | N
 
     ``plane`` (given in Σ_0) is drawn as the environment's surface; for a result it defaults
     to the surface of the run's environment, as the report draws it.  Returns a
-    ``plotly.graph_objects.Figure``.
+    ``plotly.graph_objects.Figure`` (displayed in a notebook with plotly.js inline: offline).
     """
     go = _plotly()
     result = None
@@ -187,7 +212,7 @@ def view3d(subject, q=None, *, robot=None, frame: str = "base", plane: Plane | N
     scene_layout = dict(aspectmode="cube", **{
         f"{name}axis": dict(range=[centre[k] - half, centre[k] + half], title=f"{name}_{axis} [m]")
         for k, name in enumerate("xyz")})
-    figure = go.Figure(data=traces)
+    figure = _figure_class(go)(data=traces)
     joint_text = ", ".join(j.name for j in robot.joints)
     heading = title or f"{robot.name} in Σ_{axis}" + (" — recorded motion" if result else "")
     figure.update_layout(title=heading, scene=scene_layout, margin=dict(l=0, r=0, t=40, b=0), showlegend=True,
