@@ -26,19 +26,19 @@ the signature
 
     law(t, q, qd, z, h_e, params, tau_out, zdot_out, signals_out) -> None
 
-=============  ========  ==================================================================
-argument       shape     meaning
-=============  ========  ==================================================================
-``t``          float     time [s]
-``q, qd``      (n,)      measured joint positions / velocities [m | rad], [m/s | rad/s]
-``z``          (k,)      controller state (read only)
-``h_e``        (6,)      measured end-effector wrench [f; μ] in Σ_0 [N, N·m] that the
-                         end effector exerts on the environment (zeros in free space)
-``params``     —         ``Controller.params()``, a NamedTuple of plain arrays (see below)
-``tau_out``    (n,)      write the commanded joint torque/force τ [N·m | N]
-``zdot_out``   (k,)      write ż (k may be 0)
-``signals_out``(s,)      write the logged signals, concatenated in ``signals()`` order
-=============  ========  ==================================================================
+===============  ========  ==================================================================
+argument         shape     meaning
+===============  ========  ==================================================================
+``t``            float     time [s]
+``q, qd``        (n,)      measured joint positions / velocities [m | rad], [m/s | rad/s]
+``z``            (k,)      controller state (read only)
+``h_e``          (6,)      measured end-effector wrench [f; μ] in Σ_0 [N, N·m] that the
+                           end effector exerts on the environment (zeros in free space)
+``params``       —         ``Controller.params()``, a NamedTuple of plain arrays (see below)
+``tau_out``      (n,)      write the commanded joint torque/force τ [N·m | N]
+``zdot_out``     (k,)      write ż (k may be 0)
+``signals_out``  (s,)      write the logged signals, concatenated in ``signals()`` order
+===============  ========  ==================================================================
 
 The law must not allocate: every temporary lives in an array of ``params`` (for example a
 workspace from ``armlab.kernels.dynamics.make_workspace``).  It must write every entry of its

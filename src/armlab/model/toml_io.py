@@ -48,7 +48,7 @@ def axis_alignment(axis) -> np.ndarray:
 
 
 def evaluate_expression(text: str, names: dict[str, float]) -> float:
-    """Value of an arithmetic expression over ``names`` (+ − * / **, sqrt/sin/cos/tan, pi).
+    """Value of an arithmetic expression over ``names`` (``+ − * / **``, sqrt/sin/cos/tan, pi).
 
     Only these operations are accepted: the robot file is data, never code.
     """
