@@ -26,6 +26,10 @@ the signature
 
     law(t, q, qd, z, h_e, params, tau_out, zdot_out, signals_out) -> None
 
+(A law in plain Python runs too, about 60 times slower: ``armlab.simulate`` then integrates
+in Python, ``armlab.simulation.python_loop``; ``armlab.control.function.FunctionController``
+takes a law given as a function, also the short form ``tau = law(t, q, qd)``.)
+
 ===============  ========  ==================================================================
 argument         shape     meaning
 ===============  ========  ==================================================================
