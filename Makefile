@@ -38,6 +38,7 @@ $(BENCH_STAMP): $(TEST_STAMP)
 
 demo: $(RUN_STAMP)
 	$(BIN)/armlab demo
+	$(BIN)/armlab report
 
 test: $(TEST_STAMP)
 	$(BIN)/ruff check src tests benchmarks

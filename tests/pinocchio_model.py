@@ -2,8 +2,10 @@
 
 Pinocchio is an independent implementation of the kinematics and dynamics of rigid-body trees,
 so agreement between armlab and the model built here checks armlab's algorithms *and* its URDF
-export.  Pinocchio's world frame is Σ_base (the URDF root ``base``); armlab's gravity g_0 is
-given in Σ_0, so it is rotated into Σ_base: g_base = R_base0 g_0.
+export.  Pinocchio's world frame is the URDF root: ``base`` (Σ_base), or ``world`` when the
+export rotates Σ_base so that gravity points along −z (R_world,base of ``world_rotation``).
+armlab's gravity g_0 is given in Σ_0, so it is rotated into that root:
+g_world = R_world,base R_base0 g_0; frames are returned in Σ_base.
 
 Motor rotor inertias are not part of a URDF; ``armature=True`` adds the reflected inertia
 k_r² I_m of each rotor to the diagonal of Pinocchio's mass matrix (the rotor's gyroscopic
@@ -15,13 +17,13 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
-from armlab.model.urdf_io import to_urdf, urdf_names
+from armlab.model.urdf_io import to_urdf, urdf_names, world_rotation
 
 
 def pinocchio_model(robot, *, armature: bool = False):
     """(model, data) of ``robot`` loaded by ``pinocchio.buildModelFromXML(to_urdf(robot))``."""
     model = pin.buildModelFromXML(to_urdf(robot))
-    model.gravity.linear = robot.base[:3, :3] @ np.asarray(robot.gravity, dtype=float)
+    model.gravity.linear = world_rotation(robot) @ robot.base[:3, :3] @ np.asarray(robot.gravity, dtype=float)
     if armature:
         m = robot.arrays
         for i, v in enumerate(v_index(robot, model)):
@@ -79,5 +81,7 @@ def frame_names(robot) -> list[str]:
 def pinocchio_frames(robot, model, data, q) -> np.ndarray:
     """Σ_0 … Σ_e in Σ_base computed by Pinocchio, (n + 2, 4, 4)."""
     pin.framesForwardKinematics(model, data, pinocchio_q(robot, model, q))
-    return np.array([data.oMf[model.getFrameId(name, pin.BODY)].homogeneous
+    base_from_world = np.eye(4)
+    base_from_world[:3, :3] = world_rotation(robot).T
+    return np.array([base_from_world @ data.oMf[model.getFrameId(name, pin.BODY)].homogeneous
                      for name in frame_names(robot)])

@@ -47,3 +47,22 @@ def test_file_errors_are_one_line_naming_file_and_field():
     assert str(error) == "arm.toml: joint.2.mass: must be ≥ 0, got -1"
     assert (error.file, error.field) == ("arm.toml", "joint.2.mass")
     assert isinstance(errors.ScenarioFileError("a", "b", "c"), ValueError)
+
+
+def test_errors_with_their_own_fields_cross_process_boundaries():
+    """The report runs experiments in worker processes: their errors come back pickled."""
+    import pickle
+
+    import numpy as np
+
+    from armlab.errors import RobotFileError, ScenarioFileError, SimulationDiverged, UnreachableTargetError
+
+    for error in (RobotFileError("r.toml", "mass", "is negative"), ScenarioFileError("s.toml", "dt", "zero")):
+        again = pickle.loads(pickle.dumps(error))
+        assert type(again) is type(error) and str(again) == str(error) and again.field == error.field
+    error = UnreachableTargetError("out of reach", reason="distance", best_q=[0.1, 0.2], position_error=0.3)
+    again = pickle.loads(pickle.dumps(error))
+    assert again.reason == "distance" and np.array_equal(again.best_q, [0.1, 0.2])
+    assert again.position_error == 0.3
+    again = pickle.loads(pickle.dumps(SimulationDiverged("diverged at t = 1 s", result=[1, 2])))
+    assert str(again) == "diverged at t = 1 s" and again.result == [1, 2]

@@ -306,11 +306,13 @@ def test_jacobian_and_jdot_qd_agree_with_pinocchio(robot):
     """Pinocchio (an independent implementation) on armlab's URDF export, in Σ_base."""
     import pinocchio as pin
 
+    from armlab.model.urdf_io import world_rotation
     from pinocchio_model import pinocchio_model, pinocchio_q, pinocchio_v, v_index
 
     model, data = pinocchio_model(robot)
     frame_id = model.getFrameId("sigma_e", pin.BODY)
     columns = v_index(robot, model)
+    to_base = np.kron(np.eye(2), world_rotation(robot).T)
     rng = np.random.default_rng(12)
     for _ in range(3):
         q, qd = rng.uniform(-1, 1, robot.n) * 0.3, rng.uniform(-2, 2, robot.n)
@@ -318,9 +320,10 @@ def test_jacobian_and_jdot_qd_agree_with_pinocchio(robot):
         pin.computeJointJacobians(model, data, q_pin)
         pin.updateFramePlacements(model, data)
         J_pin = pin.getFrameJacobian(model, data, frame_id, pin.LOCAL_WORLD_ALIGNED)[:, columns]
+        J_pin = to_base @ J_pin  # Pinocchio's world is the export's root (see pinocchio_model)
         assert np.allclose(geometric_jacobian(robot, q, "base"), J_pin, atol=1e-10)
         pin.forwardKinematics(model, data, q_pin, v_pin, np.zeros(model.nv))
         pin.updateFramePlacements(model, data)
         acc = pin.getFrameClassicalAcceleration(model, data, frame_id, pin.LOCAL_WORLD_ALIGNED)
-        assert np.allclose(jacobian_dot_qd(robot, q, qd, "base"), np.concatenate([acc.linear, acc.angular]),
-                           atol=1e-10)
+        acc_base = to_base @ np.concatenate([acc.linear, acc.angular])
+        assert np.allclose(jacobian_dot_qd(robot, q, qd, "base"), acc_base, atol=1e-10)

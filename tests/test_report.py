@@ -219,6 +219,11 @@ def test_report_renders_in_headless_chromium(report, tmp_path):
     assert rendered.experiments == source.experiments
     assert rendered.figures == source.figures and len(rendered.figures) >= 3
     assert rendered.math == source.math
+    # The formulas as the browser holds them: dotted rates, Greek letters, true minus signs.
+    formulas = "".join(re.findall(r"<math.*?</math>", dom.stdout, re.S))
+    assert "<mover" in formulas and "\u0307" not in formulas
+    assert "varphi" not in formulas and "vartheta" not in formulas and "\u03d1" in formulas
+    assert "<mo>-</mo>" not in formulas and "<mo>\u2212</mo>" in formulas
     from PIL import Image
 
     with Image.open(shot_path) as image:
@@ -262,3 +267,155 @@ def test_animation_subject_is_chosen_early_only_when_no_pending_run_can_change_i
     assert animation_subject([diverged, free], "prp", final=False) is None  # not a final choice yet
     assert animation_subject([diverged, free], "prp") is free
     assert animation_subject([], "prp") is None
+
+
+def _ink_runs(pixels: np.ndarray) -> int:
+    """Runs of consecutive rows that hold ink (dark pixels) in a grey image."""
+    inked = (pixels < 128).any(axis=1).astype(int)
+    return int(np.sum(np.diff(np.concatenate([[0], inked])) == 1))
+
+
+FIREFOX = next((shutil.which(n) for n in ("firefox-esr", "firefox") if shutil.which(n)), None)
+
+
+def _screenshot(browser: str, tmp_path, page, width: int, height: int):
+    """A headless screenshot of ``page`` by ``browser`` ("chromium" or "firefox"), or a skip."""
+    shot_path = tmp_path / f"{browser}.png"
+    if browser == "chromium":
+        if CHROMIUM is None:
+            pytest.skip("chromium not installed: apt-get install -y chromium (or .ci/run) to run this check")
+        recorder = _ConnectionRecorder()
+        try:
+            shot = _run_chromium(tmp_path, page, [f"--window-size={width},{height}",
+                                                  f"--screenshot={shot_path}"], recorder.port)
+        finally:
+            recorder.close()
+    else:
+        if FIREFOX is None:
+            pytest.skip("firefox not installed: apt-get install -y firefox-esr to run this check")
+        profile = tmp_path / "firefox-profile"
+        profile.mkdir()
+        shot = subprocess.run([FIREFOX, "--headless", "--profile", str(profile),
+                               f"--window-size={width},{height}", "--screenshot", str(shot_path),
+                               page.as_uri()],
+                              capture_output=True, text=True, timeout=180)
+    assert shot.returncode == 0 and shot_path.exists(), shot.stderr[-2000:]
+    from PIL import Image
+
+    with Image.open(shot_path) as image:
+        return np.asarray(image.convert("L"), dtype=float)
+
+
+@pytest.mark.parametrize("browser", ["chromium", "firefox"])
+def test_time_derivatives_render_with_a_separate_dot(browser, tmp_path):
+    """θ̇, ḋ and θ̈ as the report prints them, drawn by the browser with the report's style:
+    dots above the letter with background between them (a dot fused into the letter, or none,
+    gives one run of inked rows, as the plain θ of the control does)."""
+    import sympy as sp
+
+    from armlab.symbolic import to_mathml
+    from armlab.viz.html import document
+
+    names = ("thetadot", "ddot", "thetaddot", "theta")
+    boxes = "".join(f'<div style="position:absolute;left:20px;top:{20 + 160 * k}px">'
+                    f'<math style="font-size:80px">{to_mathml(sp.Symbol(name))}</math></div>'
+                    for k, name in enumerate(names))
+    page = tmp_path / "dots.html"
+    page.write_text(document("dots", [], [], '<div style="position:fixed;inset:0;background:#fff;'
+                                             f'z-index:9">{boxes}</div>'), encoding="utf-8")
+    pixels = _screenshot(browser, tmp_path, page, 300, 680)
+    runs = [_ink_runs(pixels[10 + 160 * k: 170 + 160 * k]) for k in range(len(names))]
+    assert runs == [2, 2, 2, 1], dict(zip(names, runs))
+
+
+def test_experiments_come_in_the_seeds_order():
+    """Option 1 before option 3 (A6), free motion before contact (A15): an explicit order,
+    which alphabetical order would break."""
+    import armlab
+    from armlab.viz.experiments import discover
+
+    names = [e.name for e in discover(armlab.load_robot("prp"), quick=True)]
+    assert names.index("a6_pd_online") < names.index("a6_pd_none") < names.index("a6_pd_desired")
+    assert names.index("a15_parallel_free") < names.index("a15_parallel_contact")
+    assert sorted(names) != names
+    numbers = [assignment_number(n) for n in names]
+    assert numbers == sorted(numbers)
+
+
+def test_seed_notes_are_read_from_the_docs_pages(tmp_path):
+    """Each section's notes come from its page's section about the seed, rendered as HTML
+    (lists, code, emphasis, tables; prose escaped), read at build time: a changed page shows."""
+    from armlab.viz.notes import DOCS, markdown_html, seed_notes
+
+    page = (tmp_path / "A7-x.md")
+    page.write_text("# A7\n\nintro\n\n## Results\n\nnot this\n\n## Notes on the seed\n\n"
+                    "* one `τ < 1` **two**\n  continued\n\n      code line\n* three\n\n"
+                    "| a | b |\n|---|---|\n| 1 | *x* |\n\n## Any robot\n\nnot this either\n",
+                    encoding="utf-8")
+    ((heading, text),) = seed_notes(7, tmp_path)
+    assert heading == "Notes on the seed" and "not this" not in text
+    rendered = markdown_html(text)
+    assert rendered.startswith("<ul><li><p>one <code>τ &lt; 1</code> <strong>two</strong> continued")
+    assert "<pre>code line</pre>" in rendered and "<li>three</li>" in rendered
+    assert "<td><em>x</em></td>" in rendered
+    assert seed_notes(9, tmp_path) == []
+    # The shipped pages: every assignment A1–A15 has its note.
+    assert all(seed_notes(n, DOCS) for n in range(1, 16))
+
+
+def test_report_shows_each_sections_seed_note_and_the_metric_definitions(report):
+    report, scenarios = report
+    text = report.read_text(encoding="utf-8")
+    import html as html_module
+
+    from armlab.viz.notes import DOCS, seed_notes
+
+    sections = dict(re.findall(r'data-assignment="([^"]+)">(.*?)</section>', text, re.S))
+    for number in (1, 2, 3, 4, 5, *{assignment_number(n) for n in scenarios}):
+        body = sections[f"A{number}"]
+        assert '<aside class="seed-note">' in body, number
+        # A sentence of the page's own note, as the reader sees it in the section.
+        first = seed_notes(number, DOCS)[0][1]
+        words = re.sub(r"[`*]", "", first.split("\n")[0].lstrip("* ")).split()[:6]
+        assert html_module.escape(" ".join(words), quote=False) in re.sub(r"<[^>]+>", "", body), number
+    assert "steady state" in sections["metrics"] and "settling time" in sections["metrics"]
+    assert "oscillation" in sections["metrics"] and "band around the final value" in sections["metrics"]
+
+
+def test_derivations_are_kept_on_disk_keyed_by_robot_and_sources(tmp_path, monkeypatch):
+    """The A1–A5 HTML is derived once per robot and code version; a damaged file is derived
+    anew (and replaced whole), another robot gets its own file."""
+    import armlab
+    from armlab.viz import report as report_module
+    from armlab.viz.progress import Progress
+
+    monkeypatch.setenv("ARMLAB_CACHE_DIR", str(tmp_path))
+    calls = []
+
+    def derive(robot, progress):
+        calls.append(robot.name)
+        return {1: f"<p>{robot.name}</p>", 2: "<p>two</p>"}
+
+    monkeypatch.setattr(report_module, "_symbolic_sections", derive)
+    prp, planar = armlab.load_robot("prp"), armlab.load_robot("planar2r")
+    quiet = Progress(1, enabled=False)
+    first = report_module._cached_symbolic_sections(prp, quiet)
+    assert report_module._cached_symbolic_sections(prp, quiet) == first == {1: "<p>prp</p>", 2: "<p>two</p>"}
+    assert calls == ["prp"]
+    path = report_module._derivation_cache(prp)
+    assert path.is_relative_to(tmp_path) and path != report_module._derivation_cache(planar)
+    path.write_text('{"1": "<p>half', encoding="utf-8")
+    assert report_module._cached_symbolic_sections(prp, quiet) == first and calls == ["prp", "prp"]
+    assert report_module._cached_symbolic_sections(planar, quiet) == {1: "<p>planar2r</p>", 2: "<p>two</p>"}
+    assert not list(path.parent.glob("*.tmp"))
+
+
+def test_quick_report_runs_the_first_scenario_of_each_assignment():
+    import armlab
+    from armlab.viz.experiments import discover
+    from armlab.viz.report import first_of_each_assignment
+
+    every = discover(armlab.load_robot("prp"), quick=True)
+    chosen = first_of_each_assignment(every)
+    assert [e.assignment for e in chosen] == sorted({e.assignment for e in every})
+    assert chosen[0].name == "a6_pd_online" and all(e.t_final <= 2.0 for e in chosen if e.t_final)

@@ -335,7 +335,7 @@ def test_cli_demo_prints_the_seed_dh_tables_and_forward_kinematics(capsys):
     """The seed's A1 tables (from Σ_base: base row a = 0, α = π/2, d = L0, θ = π/2) and
     T_3^0 at d1 = 0.1, θ2 = π/3, d3 = 0.1 from the seed's closed form:
     p = (s2 (L4/2 − d3), −c2 (L4/2 − d3), L2/2 + L3 + d1) = (0.0866, −0.05, 0.5)."""
-    code, out, err = _cli(capsys, "demo", "--no-report")
+    code, out, err = _cli(capsys, "demo")
     assert code == 0 and not err
     compact = [" ".join(line.split()) for line in out.splitlines()]
     assert "base → 0 0 π/2 L0 π/2" in compact
@@ -348,6 +348,19 @@ def test_cli_demo_prints_the_seed_dh_tables_and_forward_kinematics(capsys):
                                [[0, -0.5, 0.866, 0.0866], [0, -0.866, -0.5, -0.05], [1, 0, 0, 0.5],
                                 [0, 0, 0, 1]], atol=1e-4)
     assert "T_3^base" in out
+
+
+def test_cli_demo_builds_no_report_unless_asked(capsys, monkeypatch, tmp_path):
+    """The demo is the A1 tables; the report is `armlab report` (or `demo --report`)."""
+    import armlab.viz.report
+
+    built = []
+    monkeypatch.setattr(armlab.viz.report, "build_report",
+                        lambda robot, out, **kw: built.append(out) or tmp_path / "report.html")
+    code, out, _ = _cli(capsys, "demo")
+    assert code == 0 and built == [] and "armlab report" in out
+    code, out, _ = _cli(capsys, "demo", "--report", "--out", str(tmp_path))
+    assert code == 0 and built == [str(tmp_path)]
 
 
 def test_cli_demo_accepts_a_pose_and_another_robot(capsys):

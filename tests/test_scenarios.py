@@ -27,12 +27,15 @@ INTERACTION = [n for n in NAMES if scenario_path(n).parent.name == "interaction"
 
 
 def test_every_seed_experiment_has_a_scenario():
-    assert len([n for n in NAMES if n.startswith("a6_")]) == 7
-    assert {"a7_id_via_points", "a7_id_mismatch", "a7_id_high_gain_saturated"} <= set(NAMES)
+    # The seed's seven, option 3 with the gain condition of its proof met, and one with joint stops.
+    assert len([n for n in NAMES if n.startswith("a6_")]) == 9
+    assert {"a7_id_via_points", "a7_id_mismatch", "a7_id_mismatch_whole_model",
+            "a7_id_high_gain_saturated"} <= set(NAMES)
     assert {"a8_case1_sine", "a8_case2_square", "a8_case1_wrong_plant1",
             "a8_case1_wrong_plant2"} <= set(NAMES)
     mismatch = load_scenario("a7_id_mismatch")
-    assert mismatch.controller.model.links[2].inertial.mass == 0.16
+    assert mismatch.controller.bias_model.links[2].inertial.mass == 0.16   # the seed's Ĉ, ĝ
+    assert mismatch.controller.model.links[2].inertial.mass == 0.2         # and exact B̂
     assert mismatch.plant.links[2].inertial.mass == 0.2
     assert load_scenario("a8_case1_sine").simulation["t_final"] == 50.0
     truth = load_scenario("a8_case1_sine").run(t_final=0.1).meta["true_parameters"]

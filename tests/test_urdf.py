@@ -7,7 +7,7 @@ import pytest
 
 import armlab
 from armlab.model.toml_io import robot_from_dict
-from armlab.model.urdf_io import load_urdf
+from armlab.model.urdf_io import load_urdf, world_rotation
 from pinocchio_model import pinocchio_frames, pinocchio_model
 
 # A robot exercising every placement: modified DH, URDF-style origin/axis with oblique axes,
@@ -123,12 +123,15 @@ def _line_error(path, field, text):
 def test_urdf_round_trip_keeps_kinematics_and_inertials(name, tmp_path):
     robot = _robot(name)
     path = armlab.save_urdf(robot, tmp_path / f"{name}.urdf")
-    loaded = armlab.load_robot(path) if name == "prp" else load_urdf(path, gravity=robot.gravity)
+    # The export's world link makes g point along −z; mixed's |g| is not 9.81, so it is given.
+    loaded = load_urdf(path, gravity=robot.gravity) if name == "mixed" else armlab.load_robot(path)
     assert loaded.n == robot.n
     assert [j.kind for j in loaded.joints] == [j.kind for j in robot.joints]
     assert loaded.joint_names == robot.joint_names
-    np.testing.assert_allclose(loaded.base, robot.base, atol=1e-14)
-    # prp's Σ_0 has y up: URDF's default z-up gravity rotated into Σ_0 is the file's g_0.
+    # Σ_base of the file read back is the export's world frame: T_world,base · T_base0.
+    world = np.eye(4)
+    world[:3, :3] = world_rotation(robot)
+    np.testing.assert_allclose(loaded.base, world @ robot.base, atol=1e-14)
     np.testing.assert_allclose(loaded.gravity, robot.gravity, atol=1e-14)
     a, b = loaded.arrays, robot.arrays
     for field in ("mass", "com", "inertia", "viscous", "coulomb"):
@@ -141,8 +144,10 @@ def test_urdf_round_trip_keeps_kinematics_and_inertials(name, tmp_path):
     for _ in range(3):
         q = _random_q(robot, rng)
         for frame in ("base", "0"):
-            np.testing.assert_allclose(armlab.forward_kinematics(loaded, q, frame),
-                                       armlab.forward_kinematics(robot, q, frame), atol=1e-12)
+            expected = armlab.forward_kinematics(robot, q, frame)
+            if frame == "base":
+                expected = world @ expected
+            np.testing.assert_allclose(armlab.forward_kinematics(loaded, q, frame), expected, atol=1e-12)
 
 
 HAND_URDF = """<?xml version="1.0"?>
@@ -238,7 +243,7 @@ MALFORMED_URDF = {
     "branching": (('<link name="tool0"/>', '<link name="tool0"/><link name="arm2"/><joint name="j2" '
                    'type="revolute"><parent link="upper"/><child link="arm2"/>'
                    '<limit lower="-1" upper="1" effort="1" velocity="1"/></joint>'),
-                  "joint[slide]", "another branch"),
+                  "tip", "several branches; the longest chains (2 joints) end in arm2, tool0"),
     "ambiguous tip": (('<link name="tool0"/>', '<link name="tool0"/><link name="cam"/><joint name="j2" '
                        'type="fixed"><parent link="slider"/><child link="cam"/></joint>'),
                       "tip", "several links (cam, tool0)"),

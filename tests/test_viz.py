@@ -194,7 +194,8 @@ def test_scopes_are_chosen_from_the_signals(tmp_path):
     names = [scope.name for scope in scope_layout(result)]
     assert names == ["positions", "q_err", "torques", "forces"]
     paths = plot_scopes(result, tmp_path)
-    assert [p.name for p in paths] == [f"{n}.{f}" for n in names for f in ("png", "svg")]
+    # Named by scenario: the scopes of several runs can share a folder.
+    assert [p.name for p in paths] == [f"synthetic_{n}.{f}" for n in names for f in ("png", "svg")]
     for path in paths:
         if path.suffix == ".png":
             with Image.open(path) as image:
@@ -310,15 +311,16 @@ def test_decimation_equals_the_bucket_by_bucket_definition():
 
 def test_metrics_against_the_closed_form_first_order_decay():
     """e(t) = e0 exp(−t/T) leaves the 2 % band for good at T ln 50; f_e reaches f_d."""
-    from armlab.viz.metrics import measure, settling_time
+    from armlab.metrics import settling_time
+    from armlab.viz.metrics import measure
 
     result = _synthetic_result()
     T = 0.4
     expected = T * np.log(50.0)
     assert abs(settling_time(result.t, result.signals["q_err"][:, 0]) - expected) <= 1e-3
     rows = {(m.quantity, m.component): m.value for m in measure(result)}
-    assert abs(rows[("settling time (2 %) of q_err", "θ2")] - expected) <= 1e-3
-    assert abs(rows[("steady-state q_err", "d1")]) < 0.1 * np.exp(-4.75 / T)
+    assert abs(rows[("settling time (2 % band about the final value) of q_err", "θ2")] - expected) <= 1e-3
+    assert abs(rows[("steady-state q_err (mean, last 5 %)", "d1")]) < 0.1 * np.exp(-4.75 / T)
     assert rows[("peak |τ|", "d1")] == 2.0
     assert 0.0 < rows[("time at the torque limit", "d1")] < 100.0
     assert abs(rows[("final force error f_d − h_e", "fy")]) < 0.5 * np.exp(-4.7)
@@ -569,3 +571,100 @@ def test_animation_window_and_plane_follow_the_motion():
     assert np.abs(offsets @ u).max() <= drawn.half_size and np.abs(offsets @ v).max() <= drawn.half_size
     assert np.allclose(np.asarray(drawn.point)[1], -0.2)  # the same surface
     assert plane_covering(plane, path[:3]) is plane  # already large enough
+
+
+def test_linear_response_matches_closed_forms():
+    """(L) of armlab.viz.theory against solutions by hand: critically damped from an initial
+    error, and a constant force from rest, e = (F/K)(1 − (1 + ω t) e^{−ω t})."""
+    from armlab.viz.theory import linear_response
+
+    t = np.linspace(0.0, 2.0, 2001)
+    w = 5.0
+    free = linear_response(np.eye(1), [[2 * w]], [[w * w]], t, [0.1], [0.3])
+    np.testing.assert_allclose(free[:, 0], (0.1 + (0.3 + w * 0.1) * t) * np.exp(-w * t), atol=1e-12)
+    M = np.diag([2.0, 1.0])
+    force = np.tile([3.0, -1.0], (t.size, 1))
+    forced = linear_response(M, M * 2 * w, M * w * w, t, [0.0, 0.0], [0.0, 0.0], force)
+    shape = 1.0 - (1.0 + w * t) * np.exp(-w * t)
+    np.testing.assert_allclose(forced, np.column_stack((3.0 / 50.0 * shape, -1.0 / 25.0 * shape)), atol=1e-12)
+    assert linear_response(np.eye(1), [[1.0]], [[1.0]], np.array([0.0, 0.1, 0.3]), [1.0], [0.0]) is None
+
+
+def test_computed_torque_errors_are_drawn_with_the_designed_response():
+    """A run of the inverse-dynamics law gets q̃̈ + K_D q̃̇ + K_P q̃ = 0 from its own q̃(0),
+    q̃̇(0) on its error panels; a PD run does not."""
+    from dataclasses import replace
+
+    from armlab.viz.scopes import scope_layout
+
+    result = _synthetic_result()
+    w = 4.0
+    t = result.t
+    e0, v0 = np.array([0.1, 0.5]), np.array([0.0, -1.0])
+    q_err = (e0 + (v0 + w * e0) * t[:, None]) * np.exp(-w * t)[:, None]
+    signals = {**result.signals, "q_err": q_err, "qd_err": np.gradient(q_err, t, axis=0)}
+    signals["qd_err"][0] = v0
+    labels = {**result.labels, "qd_err": result.labels["q_err"]}
+    units = {**result.units, "qd_err": ("m/s", "rad/s")}
+    controller = {"type": "JointInverseDynamics", "kp": np.diag([w * w] * 2).tolist(), "kd": [2 * w, 2 * w]}
+    designed = replace(result, signals=signals, labels=labels, units=units,
+                       meta={**result.meta, "controller": controller})
+    scope = next(s for s in scope_layout(designed) if s.name == "q_err")
+    for k, panel in enumerate(scope.panels):
+        (curve,) = [c for c in panel.curves if c[0] == "designed"]
+        np.testing.assert_allclose(curve[2], q_err[:, k], atol=1e-9)
+    assert "designed" in scope.caption
+    pd = replace(designed, meta={**designed.meta, "controller": {**controller, "type": "JointPDGravity"}})
+    scope = next(s for s in scope_layout(pd) if s.name == "q_err")
+    assert all(c[0] != "designed" for p in scope.panels for c in p.curves)
+
+
+def test_position_scope_marks_the_spring_rest_position():
+    from dataclasses import replace
+
+    from armlab.viz.scopes import scope_layout
+
+    result = _synthetic_result()
+    t = result.t
+    p = np.tile([0.0, -0.1, 0.4], (t.size, 1))
+    signals = {**result.signals, "p": p, "p_des": p}
+    labels = {**result.labels, "p": ("x", "y", "z"), "p_des": ("x", "y", "z")}
+    units = {**result.units, "p": ("m",) * 3, "p_des": ("m",) * 3}
+    environment = {"type": "Spring", "rest_position": [0.0, -0.2, 0.5]}
+    spring = replace(result, signals=signals, labels=labels, units=units,
+                     meta={**result.meta, "environment": environment})
+    scope = next(s for s in scope_layout(spring) if s.name == "p")
+    assert [[v for v, style in panel.hlines if "Σ_r" in style.get("label", "")] for panel in scope.panels] \
+        == [[0.0], [-0.2], [0.5]]
+    free = replace(spring, meta={**spring.meta, "environment": None})
+    scope = next(s for s in scope_layout(free) if s.name == "p")
+    assert all(not panel.hlines for panel in scope.panels)
+
+
+def test_comparison_caption_measures_overshoot_and_the_state_saturation_leaves():
+    """Overshoot relative to the initial error; after the torque leaves its limit at t_s the
+    critically damped loop crosses zero iff q̃̇ + ω_n q̃ and q̃ differ in sign (by hand here:
+    q̃ = e0 e^{−t/T} gives q̃̇ + ω_n q̃ = q̃ (ω_n − 1/T))."""
+    from dataclasses import replace
+
+    from armlab.viz.comparisons import Comparison, comparison_scope, overshoot
+
+    assert overshoot(np.array([1.0, 0.5, -0.2, 0.1, 0.0])) == pytest.approx(20.0)
+    assert overshoot(np.array([-0.5, 0.1, 0.0])) == pytest.approx(20.0)
+    assert overshoot(np.array([0.0, 0.3])) == 0.0
+    result = _synthetic_result(limit=2.0)    # τ_1 = 5 e^{−t} clipped at 2 until t = ln 2.5
+    T = 0.4
+    signals = {**result.signals, "qd_err": -result.signals["q_err"] / T}
+    labels = {**result.labels, "qd_err": result.labels["q_err"]}
+    units = {**result.units, "qd_err": ("m/s", "rad/s")}
+    comparison = Comparison(7, "c", "title", ("a", "b"), ("free", "clipped"), window=0.3, torques=True)
+    for kp, crosses in ((100.0, False), (1.0, True)):     # ω_n = 10 or 1 against 1/T = 2.5
+        run = replace(result, signals=signals, labels=labels, units=units,
+                      meta={**result.meta, "controller": {"type": "JointInverseDynamics", "kp": [kp, kp],
+                                                           "kd": [1.0, 1.0]}})
+        scope = comparison_scope(comparison, run, run)
+        assert "d1 is at the limit for 917 ms" in scope.caption
+        assert ("carries it past zero" in scope.caption) is crosses
+        assert ("cannot carry it past zero" in scope.caption) is not crosses
+        assert all(curve[1][-1] <= 0.3 for panel in scope.panels for curve in panel.curves)
+        assert [p.ylabel for p in scope.panels][-2:] == ["τ d1 [N]", "τ θ2 [N·m]"]  # both clip

@@ -20,6 +20,7 @@ COMMANDS = (
     "derive",
     "demo",
     "scenarios",
+    "course",
     "run",
     "report",
 )

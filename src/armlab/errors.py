@@ -47,6 +47,10 @@ class FileFieldError(InputError):
         self.file, self.field, self.reason = str(file), field, reason
         super().__init__(f"{self.file}: {field}: {reason}")
 
+    def __reduce__(self):
+        # Rebuilt from its three parts (not from the message) when it crosses to another process.
+        return type(self), (self.file, self.field, self.reason)
+
 
 class RobotFileError(FileFieldError):
     """A robot file that cannot describe a robot."""
@@ -110,6 +114,11 @@ class UnreachableTargetError(InputError):
         self.position_error = float(position_error)
         self.orientation_error = float(orientation_error)
 
+    def __reduce__(self):
+        return _rebuild, (type(self), self.args, {"reason": self.reason, "best_q": self.best_q,
+                                                  "position_error": self.position_error,
+                                                  "orientation_error": self.orientation_error})
+
 
 class RepresentationSingularityError(InputError):
     """Euler angles asked for at their representation singularity."""
@@ -152,6 +161,14 @@ class SimulationDiverged(ArmlabError, RuntimeError):
     def __init__(self, message: str, result):
         super().__init__(message)
         self.result = result
+
+    def __reduce__(self):
+        return type(self), (self.args[0], self.result)
+
+
+def _rebuild(cls, args, keywords):
+    """An exception rebuilt in another process from its arguments (``__reduce__``)."""
+    return cls(*args, **keywords)
 
 
 class CommandError(ArmlabError):

@@ -1,5 +1,6 @@
-"""Inverse kinematics: closed form for cylindrical P-R-P arms (the seed's PRP), damped least
-squares for any serial robot.
+"""Inverse kinematics, every branch: closed form for cylindrical P-R-P arms (the seed's PRP) and
+for 6R arms with a spherical wrist (the PUMA 560), seeded multi-start damped least squares for
+any other serial robot.
 
 Closed form (K7, derivation in ``docs/notation.md``).  A robot whose joints are prismatic,
 revolute, prismatic with axis 1 ∥ axis 2 and axis 3 ⊥ axis 2 (the seed's PRP, whatever its
@@ -11,13 +12,25 @@ lengths, base or tool) has, with everything read off the forward kinematics at q
 so  d1 = (p − o − w)·a / (a₁·a),  d3 = −w·u ± √((w·u)² − |w⊥|² + |t⊥|²)  with t = p − o − d1 a₁,
 and θ2 the angle about a from w⊥ + d3 u to t⊥.  Both branches (±) are returned.
 
+Closed form for a 6R arm whose axes 1 and 2 meet in a point s and whose axes 4, 5, 6 meet in
+the wrist centre w (K9, Pieper's decoupling solved with the Paden–Kahan subproblems in the
+product of exponentials FK(q) = exp(ξ₁q₁)…exp(ξ₆q₆) T_e(0), screws read off the joint frames at
+q = 0): |w(q) − s| depends on q3 alone (subproblem 3, ≤ 2 roots), q1, q2 place w (subproblem 2,
+≤ 2 pairs), the wrist's rotation gives q4, q5 (subproblem 2) and q6 (subproblem 1): up to 8
+solutions for a full pose, each checked by forward kinematics.
+
 Damped least squares (K8) for any robot: Levenberg–Marquardt steps
 
     Δq = (JᵀJ + μ I)⁻¹ Jᵀ e,   e = [p_des − p_e; log(R_des R_eᵀ)]   (position rows only for a
                                                                   position target)
 
 with μ adapted (÷3 on success, ×4 on failure), q clipped into the joint limits, and restarts
-from seeded random configurations.  The orientation error is the rotation vector (K12), so
+from seeded random configurations.  When the arm has no more joints than the task has rows
+(6 for a pose, 3 for a position) its solutions are isolated, and every start is run: the
+distinct converged ones (|Δq| > 10⁻⁶, angles compared on the circle) are returned, each within
+``tol`` of the target by forward kinematics — the branches the starts found, not a proof that
+there are no others.  A redundant arm has a continuum of solutions; the first converged one is
+returned.  The orientation error is the rotation vector (K12), so
 an Euler-angle target never meets a representation singularity here.
 
 Joint limits: solutions outside ``Joint.limits`` are dropped when ``respect_limits=True``
@@ -251,6 +264,152 @@ def _apply_limits(robot, solutions, target, respect_limits):
         reason="joint limits", best_q=solutions[0], position_error=0.0, orientation_error=0.0)
 
 
+# ------------------------------------------------- 6R arms with a spherical wrist (K9, Pieper)
+
+
+@dataclass(frozen=True)
+class SphericalWrist6R:
+    """Screw axes of a 6R arm at q = 0 in Σ_0 (ω_i unit axis, r_i a point on it), the point s
+    where axes 1 and 2 meet, the wrist centre w where axes 4, 5, 6 meet, and T_e(0)."""
+
+    omega: np.ndarray   # (6, 3)
+    point: np.ndarray   # (6, 3)
+    s: np.ndarray
+    w: np.ndarray
+    T_e0: np.ndarray
+
+
+def _axes_meet(w1, r1, w2, r2, tol):
+    """The point where two lines (unit direction w, point r) meet, or None (parallel or skew)."""
+    n = np.cross(w1, w2)
+    if np.linalg.norm(n) < 1e-9:
+        return None
+    # Closest points r1 + a w1, r2 + b w2: solve the 2×2 normal equations.
+    d = r2 - r1
+    c = w1 @ w2
+    a = (d @ w1 - c * (d @ w2)) / (1 - c * c)
+    b = (c * (d @ w1) - d @ w2) / (1 - c * c)
+    p1, p2 = r1 + a * w1, r2 + b * w2
+    return 0.5 * (p1 + p2) if np.linalg.norm(p1 - p2) <= tol else None
+
+
+def spherical_wrist_structure(robot: Robot) -> SphericalWrist6R | None:
+    """The :class:`SphericalWrist6R` geometry if ``robot`` has six revolute joints, axes 1 and
+    2 meeting in a point and axes 4, 5, 6 meeting in another (the PUMA 560 and its kin), else
+    None."""
+    if robot.n != 6 or any(j.kind != "revolute" for j in robot.joints):
+        return None
+    ws = kinematics_workspace(6)
+    joint_frames_into(robot.arrays, np.zeros(6), ws.R, ws.p)
+    end_effector_into(robot.arrays, ws.R[5], ws.p[5], ws.R_e, ws.p_e)
+    omega = np.array([ws.R[i][:, 2] for i in range(6)])
+    point = np.array([ws.p[i] for i in range(6)])
+    scale = max(1.0, float(np.abs(point).max()))
+    tol = _STRUCTURE_TOL * scale
+    s = _axes_meet(omega[0], point[0], omega[1], point[1], tol)
+    w45 = _axes_meet(omega[3], point[3], omega[4], point[4], tol)
+    w56 = _axes_meet(omega[4], point[4], omega[5], point[5], tol)
+    if s is None or w45 is None or w56 is None or np.linalg.norm(w45 - w56) > tol:
+        return None
+    T_e0 = np.eye(4)
+    T_e0[:3, :3], T_e0[:3, 3] = ws.R_e, ws.p_e
+    return SphericalWrist6R(omega=omega, point=point, s=s, w=w45, T_e0=T_e0)
+
+
+def _screw(omega, point, angle) -> np.ndarray:
+    """exp(ξ θ) of a revolute screw (unit axis ω through ``point``), (4, 4)."""
+    T = np.eye(4)
+    R = _axis_rotation(omega, angle)
+    T[:3, :3], T[:3, 3] = R, point - R @ point
+    return T
+
+
+def _subproblem1(omega, r, p, q):
+    """θ with exp(ξθ) p = q about the axis (ω, r) (Paden–Kahan 1), or None."""
+    u, v = p - r, q - r
+    u_p, v_p = u - (omega @ u) * omega, v - (omega @ v) * omega
+    if np.linalg.norm(u_p) < 1e-12:
+        return 0.0  # p on the axis: any angle
+    return float(np.arctan2(omega @ np.cross(u_p, v_p), u_p @ v_p))
+
+
+def _subproblem2(w1, w2, r, p, q):
+    """(θ1, θ2) with exp(ξ1θ1) exp(ξ2θ2) p = q, axes meeting at r (Paden–Kahan 2): 0–2 pairs."""
+    u, v = p - r, q - r
+    c = w1 @ w2
+    denom = c * c - 1.0
+    alpha = (c * (w2 @ u) - w1 @ v) / denom
+    beta = (c * (w1 @ v) - w2 @ u) / denom
+    cross = np.cross(w1, w2)
+    g2 = (u @ u - alpha ** 2 - beta ** 2 - 2 * alpha * beta * c) / (cross @ cross)
+    if g2 < -1e-10:
+        return []
+    gammas = [0.0] if g2 <= 1e-14 else [np.sqrt(g2), -np.sqrt(g2)]
+    out = []
+    for gamma in gammas:
+        z = alpha * w1 + beta * w2 + gamma * cross
+        c_point = r + z
+        out.append((_subproblem1(w1, r, c_point, q), _subproblem1(w2, r, p, c_point)))
+    return out
+
+
+def _subproblem3(omega, r, p, q, delta):
+    """θ with |exp(ξθ) p − q| = δ about the axis (ω, r) (Paden–Kahan 3): 0–2 angles."""
+    u, v = p - r, q - r
+    u_p, v_p = u - (omega @ u) * omega, v - (omega @ v) * omega
+    d2 = delta ** 2 - (omega @ (p - q)) ** 2
+    nu, nv = np.linalg.norm(u_p), np.linalg.norm(v_p)
+    if nu < 1e-12 or nv < 1e-12:
+        return []
+    theta0 = np.arctan2(omega @ np.cross(u_p, v_p), u_p @ v_p)
+    cosine = (nu ** 2 + nv ** 2 - d2) / (2 * nu * nv)
+    if abs(cosine) > 1 + 1e-10:
+        return []
+    phi = np.arccos(np.clip(cosine, -1.0, 1.0))
+    return [theta0] if phi < 1e-12 else [theta0 + phi, theta0 - phi]
+
+
+def _closed_form_wrist(geo: SphericalWrist6R, T_des: np.ndarray) -> list[np.ndarray]:
+    """Every q (≤ 8) with T_e(q) = T_des (K9): FK(q) = exp(ξ1q1)…exp(ξ6q6) T_e(0), so with
+    G = T_des T_e(0)⁻¹ the wrist centre obeys exp(ξ1q1)exp(ξ2q2)exp(ξ3q3) w = G w.  Its distance
+    to s (fixed by joints 1, 2) fixes q3 (subproblem 3); q1, q2 put it in place (subproblem 2);
+    the wrist's rotation H = (e1e2e3)⁻¹G gives q4, q5 from a point on axis 6 (subproblem 2)
+    and q6 from a point off it (subproblem 1)."""
+    om, pt = geo.omega, geo.point
+    G = T_des @ np.linalg.inv(geo.T_e0)
+    w_des = G[:3, :3] @ geo.w + G[:3, 3]
+    solutions = []
+    for q3 in _subproblem3(om[2], pt[2], geo.w, geo.s, np.linalg.norm(w_des - geo.s)):
+        e3 = _screw(om[2], pt[2], q3)
+        w3 = e3[:3, :3] @ geo.w + e3[:3, 3]
+        for q1, q2 in _subproblem2(om[0], om[1], geo.s, w3, w_des):
+            arm = _screw(om[0], pt[0], q1) @ _screw(om[1], pt[1], q2) @ e3
+            H = np.linalg.inv(arm) @ G
+            on_axis6 = geo.w + om[5]
+            target = H[:3, :3] @ on_axis6 + H[:3, 3]
+            for q4, q5 in _subproblem2(om[3], om[4], geo.w, on_axis6, target):
+                e45 = _screw(om[3], pt[3], q4) @ _screw(om[4], pt[4], q5)
+                off = geo.w + np.cross(om[5], [1.0, 0.0, 0.0] if abs(om[5][0]) < 0.9 else [0.0, 1.0, 0.0])
+                back = np.linalg.inv(e45) @ H
+                q6 = _subproblem1(om[5], pt[5], off, back[:3, :3] @ off + back[:3, 3])
+                solutions.append(np.array([q1, q2, q3, q4, q5, q6]))
+    return solutions
+
+
+def _solve_wrist(robot, geo, target, reference, respect_limits, tol):
+    T_des = np.eye(4)
+    T_des[:3, :3], T_des[:3, 3] = target.R, target.p
+    verified = []
+    for q in _closed_form_wrist(geo, T_des):
+        e_p, e_o = _residual_norms(robot, q, target)
+        # Round-off grows near the wrist singularity (q5 = 0); each branch is checked by FK.
+        if e_p <= max(tol, 1e-9) and e_o <= max(tol, 1e-9):
+            verified.append(q)
+    if not verified:
+        return None
+    return _apply_limits(robot, _distinct(robot, verified, reference), target, respect_limits)
+
+
 # ------------------------------------------------------------------- damped least squares (K8)
 
 
@@ -352,8 +511,9 @@ def _starts(robot: Robot, q0, restarts: int, seed: int, respect_limits: bool) ->
     return starts
 
 
-def _run_dls(robot, target, starts, respect_limits, tol, max_iter, damping):
-    """Best (q, e_p, e_o) over the starts; stops at the first converged one."""
+def _run_dls(robot, target, starts, respect_limits, tol, max_iter, damping, found=None):
+    """Best (q, e_p, e_o) over the starts.  Without ``found`` it stops at the first converged
+    start; with a list ``found`` it runs every start and appends each converged q to it."""
     m = robot.arrays
     n = robot.n
     q_min, q_max = (m.q_min, m.q_max) if respect_limits else (np.full(n, -np.inf), np.full(n, np.inf))
@@ -369,13 +529,32 @@ def _run_dls(robot, target, starts, respect_limits, tol, max_iter, damping):
         if e_p + e_o < best[1] + best[2]:
             best = (q, e_p, e_o)
         if e_p <= tol and e_o <= tol:
-            break
+            if found is None:
+                break
+            found.append(q)
     return best
+
+
+def _distinct(robot, solutions, reference):
+    """The solutions wrapped (2π turns) and without repeats (|Δq| < 1e-6, revolute differences
+    on the circle), nearest ``reference`` first."""
+    out = []
+    for q in sorted((_wrap_revolute(robot, q, reference) for q in solutions),
+                    key=lambda q: _distance(robot, q, reference)):
+        if all(_distance(robot, q, other) > 1e-6 for other in out):
+            out.append(q)
+    return out
 
 
 def _solve_dls(robot, target, q0, reference, respect_limits, tol, max_iter, restarts, seed, damping):
     starts = _starts(robot, q0, restarts, seed, respect_limits)
-    q, e_p, e_o = _run_dls(robot, target, starts, respect_limits, tol, max_iter, damping)
+    # A finite set of solutions exists when the task has as many rows as the arm has joints
+    # (or more); a redundant arm has a continuum of them, of which one is returned.
+    rows = 3 if target.R is None else 6
+    found = [] if robot.n <= rows else None
+    q, e_p, e_o = _run_dls(robot, target, starts, respect_limits, tol, max_iter, damping, found)
+    if found:
+        return _distinct(robot, found, reference)
     if e_p <= tol and e_o <= tol:
         return [_wrap_revolute(robot, q, reference)]
     miss = f"{e_p:.6g} m" + ("" if target.R is None else f" and {e_o:.6g} rad")
@@ -400,9 +579,10 @@ def _solve_dls(robot, target, q0, reference, respect_limits, tol, max_iter, rest
 
 def inverse_kinematics(robot: Robot, target, q0=None, *, frame: str = "base", euler: str = "zyz",
                        method: str = "auto", respect_limits: bool = True, tol: float = 1e-9,
-                       max_iter: int = 200, restarts: int = 16, seed: int = 0,
+                       max_iter: int = 200, restarts: int = 32, seed: int = 0,
                        damping: float = 1e-3) -> np.ndarray:
-    """Joint configurations q with FK(q) = target, as a (k, n) array (k ≥ 1), best first.
+    """Joint configurations q with FK(q) = target, as a (k, n) array (k ≥ 1), every branch
+    found, nearest ``q0`` (or 0) first.
 
     Parameters
     ----------
@@ -415,7 +595,9 @@ def inverse_kinematics(robot: Robot, target, q0=None, *, frame: str = "base", eu
         and picks the 2π-equivalent of revolute angles.
     method : {"auto", "closed_form", "dls"}
         ``"auto"``: closed form (K7, all branches) for a cylindrical P-R-P arm such as the
-        seed's PRP, damped least squares (K8, one solution) otherwise.
+        seed's PRP; closed form (K9, up to 8 branches) for a full pose of a 6R arm with a
+        spherical wrist; multi-start damped least squares (K8: the distinct solutions found,
+        one for a redundant arm) otherwise.  ``"dls"`` forces K8.
     respect_limits : bool
         Drop solutions outside the joint limits (DLS keeps q inside them).
     tol : float
@@ -439,9 +621,18 @@ def inverse_kinematics(robot: Robot, target, q0=None, *, frame: str = "base", eu
             raise ValueError(f"q0 must have shape ({robot.n},) for robot {robot.name!r}, got {q0.shape}")
     reference = np.zeros(robot.n) if q0 is None else q0
     geo = cylindrical_prp_structure(robot) if method != "dls" else None
-    if method == "closed_form" and geo is None:
-        raise ValueError(f"method: no closed form for {robot.name!r} (only cylindrical P-R-P arms)")
-    if geo is not None:
+    wrist = spherical_wrist_structure(robot) if method != "dls" and parsed.R is not None else None
+    if method == "closed_form" and geo is None and wrist is None:
+        raise ValueError(f"method: no closed form for {robot.name!r} (cylindrical P-R-P arms, and "
+                         "6R arms with a spherical wrist given a full pose)")
+    if wrist is not None:
+        solutions = _solve_wrist(robot, wrist, parsed, reference, respect_limits, tol)
+        if solutions is not None:
+            return np.array(solutions)
+        # Out of the closed form's reach (or lost to round-off): the numerical solver says why.
+        solutions = _solve_dls(robot, parsed, q0, reference, respect_limits, tol, max_iter, restarts,
+                               seed, damping)
+    elif geo is not None:
         solutions = _solve_closed_form(robot, geo, parsed, reference, respect_limits, tol)
         if q0 is not None:
             solutions.sort(key=lambda q: _distance(robot, q, q0))

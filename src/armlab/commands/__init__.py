@@ -11,6 +11,13 @@ import numpy as np
 from armlab.errors import CommandError
 
 
+def add_tip_argument(parser) -> None:
+    """``--tip LINK``: the end-effector link of a URDF/MJCF robot whose tree branches."""
+    parser.add_argument("--tip", metavar="LINK",
+                        help="link (URDF) or body (MJCF) carrying the end effector, for a robot file "
+                             "whose tree branches; moving joints off the chain are locked")
+
+
 def format_table(headers: list[str], rows: list[list[str]], indent: str = "") -> str:
     """Left-aligned plain-text table with a rule under the header."""
     cells = [list(map(str, headers))] + [[str(c) for c in row] for row in rows]

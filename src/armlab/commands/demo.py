@@ -1,13 +1,22 @@
 """``armlab demo``: the seed's assignment A1 on the PRP arm — its DH tables from Σ_base and
 from Σ_0 (symbolic entries and numeric values) and the forward kinematics T_3^0 and T_3^base
-at the seed's pose d1 = 0.1 m, θ2 = π/3, d3 = 0.1 m — then the whole seed as one HTML report
-(``armlab report``, written to ``--out``) unless ``--no-report``."""
+at the seed's pose d1 = 0.1 m, θ2 = π/3, d3 = 0.1 m — in about a second.  The whole seed is
+``armlab report`` (``make demo`` runs both); ``--report`` builds it here too."""
 
 from __future__ import annotations
 
+import argparse
+
 import numpy as np
 
-from armlab.commands import CommandError, format_matrix, format_number, format_table, parse_vector
+from armlab.commands import (
+    CommandError,
+    add_tip_argument,
+    format_matrix,
+    format_number,
+    format_table,
+    parse_vector,
+)
 from armlab.commands.robots import DH_HEADERS, dh_rows
 
 SEED_POSE = np.array([0.1, np.pi / 3, 0.1])
@@ -20,11 +29,15 @@ def register(subparsers) -> None:
         description="Print the DH tables of a robot (default: the seed's PRP) from Σ_base and "
                     "from Σ_0, and its forward kinematics T_n^0 and T_n^base at a pose.")
     parser.add_argument("--robot", default="prp", help="bundled robot or robot file (default: prp)")
+    add_tip_argument(parser)
     parser.add_argument("--q", help="joint values, e.g. '0.1, pi/3, 0.1' (default: the seed's "
                                     "pose for the PRP, zeros otherwise)")
+    parser.add_argument("--report", action="store_true",
+                        help="then build the HTML report of the whole seed (as `armlab report`)")
     parser.add_argument("--out", default="report", help="directory of the HTML report (default: report)")
     parser.add_argument("--quick", action="store_true", help="shortened runs in the report")
-    parser.add_argument("--no-report", action="store_true", help="only print the A1 tables")
+    # The tables alone are the default now; the old switch is still accepted.
+    parser.add_argument("--no-report", action="store_true", help=argparse.SUPPRESS)
     parser.set_defaults(func=run)
 
 
@@ -32,7 +45,7 @@ def run(args) -> int:
     from armlab.kinematics import forward_kinematics
     from armlab.robots import load_robot
 
-    robot = load_robot(args.robot)
+    robot = load_robot(args.robot, tip=args.tip)
     if args.q is not None:
         q = parse_vector(args.q, robot.n, "--q")
     elif robot.n == 3 and [j.kind for j in robot.joints] == ["prismatic", "revolute", "prismatic"]:
@@ -64,8 +77,9 @@ def run(args) -> int:
         print(f"\nForward kinematics T_{n}^base = T_base,0 · T_{n}^0")
         print(format_matrix(forward_kinematics(robot, q, frame="base"), "  "))
 
-    if args.no_report:
+    if not args.report or args.no_report:
         print_tables()
+        print("\nThe whole seed (A1–A15) as one HTML page: armlab report")
         return 0
     from armlab.viz.report import build_report
 

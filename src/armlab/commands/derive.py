@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from armlab.commands import add_tip_argument
+
 
 def register(subparsers) -> None:
     parser = subparsers.add_parser(
@@ -12,6 +14,7 @@ def register(subparsers) -> None:
                     "A1 kinematics and Jacobians, A2 energies and B(q), A3 Lagrange, C and g, "
                     "A4 Newton–Euler and its identity with Lagrange, A5 operational space.")
     parser.add_argument("robot", metavar="ROBOT", help="bundled robot name or robot file (.toml/.urdf)")
+    add_tip_argument(parser)
     parser.add_argument("--frame", choices=("0", "base"), default="0",
                         help="frame of the kinematic results and task coordinates (default: 0)")
     parser.add_argument("--format", dest="fmt", choices=("text", "latex", "markdown"), default="text",
@@ -26,7 +29,7 @@ def register(subparsers) -> None:
 def run(args) -> int:
     from armlab.robots import load_robot
 
-    robot = load_robot(args.robot)
+    robot = load_robot(args.robot, tip=args.tip)
     # SymPy (seconds to import) only once the robot file has been read without error.
     from armlab.symbolic import derive, render
 

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import argparse
 
+from armlab.commands import add_tip_argument
+
 
 def register(subparsers) -> None:
     parser = subparsers.add_parser(
@@ -13,18 +15,22 @@ def register(subparsers) -> None:
                     "The file has no external resources and opens offline.",
         formatter_class=argparse.ArgumentDefaultsHelpFormatter)
     parser.add_argument("--robot", default="prp", help="bundled robot name or robot file")
+    add_tip_argument(parser)
     parser.add_argument("--out", default="report", help="output directory")
     parser.add_argument("--quick", action="store_true",
-                        help="shortened runs (a fast preview; the numbers are those of the short runs)")
+                        help="a fast preview: the first scenario of each assignment, runs shortened, "
+                             "no animation (the numbers are those of the short runs)")
     parser.add_argument("--no-animation", action="store_true", help="leave out the GIF")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
     parser.set_defaults(func=run)
 
 
 def run(args) -> int:
+    from armlab.robots import load_robot
     from armlab.viz.report import build_report
 
-    path = build_report(args.robot, args.out, quick=args.quick, show_progress=not args.quiet,
-                        animation=not args.no_animation)
+    robot = load_robot(args.robot, tip=args.tip)
+    path = build_report(robot, args.out, quick=args.quick, show_progress=not args.quiet,
+                        animation=not (args.no_animation or args.quick))
     print(path)
     return 0

@@ -8,7 +8,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from armlab.commands import format_matrix, format_number, format_table
+from armlab.commands import add_tip_argument, format_matrix, format_number, format_table
 
 if TYPE_CHECKING:
     from armlab.model.robot import Robot
@@ -24,17 +24,24 @@ def register(subparsers) -> None:
                     "a .toml/.urdf file): its DH table or joint placements, inertials, motors and "
                     "friction.")
     parser.add_argument("name", nargs="?", metavar="NAME", help="bundled robot name or robot file")
+    add_tip_argument(parser)
     parser.add_argument("--urdf", metavar="PATH", help="also write the robot as URDF to PATH")
+    parser.add_argument("--zoo", action="store_true",
+                        help="list the arms of installed description packages (example-robot-data), "
+                             "loadable by name")
     parser.set_defaults(func=run)
 
 
 def run(args) -> int:
     from armlab.robots import load_robot
 
+    if args.zoo:
+        print(zoo_table())
+        return 0
     if args.name is None:
         print(robots_table())
         return 0
-    robot = load_robot(args.name)
+    robot = load_robot(args.name, tip=args.tip)
     print(describe(robot))
     if args.urdf:
         from armlab.model.urdf_io import save_urdf
@@ -56,6 +63,25 @@ def robots_table() -> str:
         robot = load_robot(name)
         rows.append([name, robot.n, joint_kinds(robot), robot.description])
     return format_table(["name", "DoF", "joints", "description"], rows)
+
+
+def zoo_table() -> str:
+    """The zoo's arms: name, DoF and joints when the package is installed, file and package."""
+    from armlab.robots import load_robot, zoo
+
+    rows, missing = [], set()
+    for name in zoo.zoo_names():
+        entry = zoo.ZOO[name]
+        if zoo.installed(entry):
+            robot = load_robot(name)
+            rows.append([name, robot.n, joint_kinds(robot), entry.description, zoo.provenance(name)])
+        else:
+            missing.add(entry.package)
+    out = [format_table(["name", "DoF", "joints", "description", "from"], rows)] if rows else []
+    for package in sorted(missing):
+        count = sum(entry.package == package for entry in zoo.ZOO.values())
+        out.append(f"{count} arms of {package}, which is not installed: pip install {package}")
+    return "\n".join(out)
 
 
 # ------------------------------------------------------------------ symbolic-looking DH rows
@@ -141,6 +167,8 @@ def describe(robot: Robot) -> str:
         out.append(f"provenance: {provenance}")
     if robot.source:
         out.append(f"file: {robot.source}")
+    for note in robot.notes:
+        out.append(f"note: {note}")
     out.append(f"{robot.n} joints ({joint_kinds(robot)}), gravity g_0 = {_vector(robot.gravity)} m/s² in Σ_0")
     if robot.parameters:
         out.append("\nParameters")

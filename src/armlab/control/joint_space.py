@@ -153,8 +153,12 @@ class JointInverseDynamicsParams(NamedTuple):
     qd_des: np.ndarray              # (n,) q̇_des(t) [m/s | rad/s]
     qdd_des: np.ndarray             # (n,) q̈_des(t) [m/s² | rad/s²]
     y: np.ndarray                   # (n,) outer-loop acceleration y [m/s² | rad/s²]
-    rnea: int                       # address of ``rnea_packed`` when the model has no closed form, or 0
+    rnea: int                       # address of ``rnea_packed`` (numeric model or a bias model), or 0
     zero_wrench: np.ndarray         # (6,) zeros inside ``packed_model``: h_e of the RNEA call
+    bias_model: np.ndarray          # the packed model of n̂ when it is not B̂'s (else empty)
+    bias_wrench: np.ndarray         # (6,) zeros inside ``bias_model`` (h_e of its RNEA call)
+    zero: np.ndarray                # (n,) zeros: q̈ of the bias terms
+    bias: np.ndarray                # (n,) scratch for n̂
 
 
 @law_kernel
@@ -179,10 +183,19 @@ def joint_inverse_dynamics_law(t, q, qd, z, h_e, params, tau_out, zdot_out, sign
     # form or its RNEA, whichever ``dynamics`` chose (armlab.specialise).  The RNEA is the
     # plant's own ``rnea_packed`` with a zero wrench (skipped at run time): one compiled RNEA
     # serves plant and law, rather than a second one without the wrench (~4 s cold compile).
-    if params.rnea != 0:
+    if inverse_dynamics == 0:
         call_none(params.rnea, (model, q, qd, y, params.zero_wrench, tau_out))
     else:
         call_none(inverse_dynamics, (model, q, qd, y, tau_out))
+    if params.bias_model.size:
+        # n̂ from its own model (the seed's A7 mismatch): τ += n̂_bias(q, q̇) − n̂_model(q, q̇).
+        bias, bias_model = params.bias, params.bias_model
+        call_none(params.rnea, (bias_model, q, qd, params.zero, params.bias_wrench, bias))
+        for i in range(n):
+            tau_out[i] += bias[i]
+        call_none(params.rnea, (model, q, qd, params.zero, params.zero_wrench, bias))
+        for i in range(n):
+            tau_out[i] -= bias[i]
     for i in range(n):
         signals_out[i] = q_des[i]
         signals_out[n + i] = q_des[i] - q[i]
@@ -215,6 +228,11 @@ class JointInverseDynamics(Controller):
     B̂⁻¹[(B − B̂)q̈ + n − n̂] drives q̃ off zero: a steady-state error where gravity is
     mis-compensated.  h_e is not compensated (free-space control).
 
+    ``bias_model`` (optional) is the model of n̂ alone, B̂ staying the ``model``'s: the seed's A7
+    mismatch keeps B̂ = B and computes Ĉ, ĝ with m_Link4 = 0.16 kg.  Its equilibrium at rest
+    (q̇ = 0, constant q_des) is B̂(q) K_P q̃ = g(q) − ĝ(q), q = q_des − q̃
+    (:func:`armlab.theory.inverse_dynamics_equilibrium`).
+
     B̂ y + n̂ is evaluated as the model's inverse dynamics at q̈ = y, by its closed form or its
     RNEA as ``dynamics`` says ("auto", "closed_form" or "numeric", see ``armlab.specialise``).
 
@@ -226,6 +244,7 @@ class JointInverseDynamics(Controller):
     kp: np.ndarray
     kd: np.ndarray
     dynamics: Literal["auto", "closed_form", "numeric"] = "auto"
+    bias_model: Robot | None = None
     law = joint_inverse_dynamics_law
     entry = joint_inverse_dynamics_entry
 
@@ -236,6 +255,8 @@ class JointInverseDynamics(Controller):
         object.__setattr__(self, "kd", gain_matrix(self.kd, n, "kd"))
         if choice_problem(self.dynamics):
             raise ControllerSpecError(f"dynamics: {choice_problem(self.dynamics)}")
+        if self.bias_model is not None and self.bias_model.n != n:
+            raise ControllerSpecError(f"bias_model: has {self.bias_model.n} joints, the model {n}")
 
     @classmethod
     def from_poles(cls, model: Robot, reference: JointReference, omega_n, zeta=1.0):
@@ -255,13 +276,17 @@ class JointInverseDynamics(Controller):
                         or np.any(self.kd - np.diag(np.diag(self.kd))))
         packed_model = packed_copy(self.model)
         numeric = kernel is inverse_dynamics_packed
+        bias = self.bias_model is not None
+        bias_model = packed_copy(self.bias_model) if bias else np.zeros(0)
         return JointInverseDynamicsParams(
             inverse_dynamics=0 if numeric else kernel_address(kernel, _INVERSE_DYNAMICS_TYPES, types.none),
             packed_model=packed_model, reference=np.array(self.reference.data),
             kp=self.kp, kd=self.kd, diagonal=np.array([diagonal], dtype=np.int64),
             q_des=np.zeros(n), qd_des=np.zeros(n), qdd_des=np.zeros(n), y=np.zeros(n),
-            rnea=kernel_address(rnea_packed, _RNEA_TYPES, types.none) if numeric else 0,
-            zero_wrench=zero_wrench(packed_model))
+            rnea=kernel_address(rnea_packed, _RNEA_TYPES, types.none) if numeric or bias else 0,
+            zero_wrench=zero_wrench(packed_model),
+            bias_model=bias_model, bias_wrench=zero_wrench(bias_model) if bias else np.zeros(6),
+            zero=np.zeros(n), bias=np.zeros(n))
 
     def signals(self):
         return (Signal.joint("q_des", self.model, "position"), Signal.joint("q_err", self.model, "error"),

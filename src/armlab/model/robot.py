@@ -212,8 +212,11 @@ class Robot:
     end-effector frame Σ_e seen from the last link frame Σ_n.  ``gravity`` is g_0 in Σ_0
     [m/s²].  ``source`` names the file it was loaded from, ``description`` says what it is,
     ``parameters`` holds the named values of the robot file (L0, m_Link4, …) and ``spec`` the
-    file's raw content, expressions unevaluated, for the symbolic derivations.  ``arrays`` is
-    its :class:`RobotArrays`, derived at construction.
+    file's raw content, expressions unevaluated, for the symbolic derivations.  ``notes`` are
+    one-line remarks of the loader on what it changed from the file (side branches locked,
+    limits read as absent, the package a zoo robot came from); ``tip`` the link (URDF) or body
+    (MJCF) of the file that carries Σ_e ("" for armlab's own files).  ``arrays`` is its
+    :class:`RobotArrays`, derived at construction.
     """
 
     name: str
@@ -226,11 +229,14 @@ class Robot:
     source: str = ""
     parameters: dict = field(default_factory=dict)
     spec: dict = field(default_factory=dict)
+    notes: tuple[str, ...] = ()
+    tip: str = ""
     arrays: RobotArrays = field(init=False, repr=False, compare=False)
 
     def __post_init__(self):
         object.__setattr__(self, "joints", tuple(self.joints))
         object.__setattr__(self, "links", tuple(self.links))
+        object.__setattr__(self, "notes", tuple(self.notes))
         object.__setattr__(self, "gravity", _frozen_array(self.gravity, (3,)))
         object.__setattr__(self, "base", _frozen_array(self.base, (4, 4)))
         object.__setattr__(self, "tool", _frozen_array(self.tool, (4, 4)))

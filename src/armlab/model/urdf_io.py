@@ -2,8 +2,14 @@
 
 Export.  The URDF written for a :class:`Robot` has one link per frame of the description:
 
-* ``base`` — Σ_base, the root; a fixed joint ``base_to_sigma_0`` places ``sigma_0`` (Σ_0) at
-  the robot's base transform T_base0;
+* ``world`` — only when gravity is not along −z of Σ_base: the root, z up, with a fixed joint
+  ``world_to_base`` rotating Σ_base so that g points along −z of ``world`` (URDF has no
+  gravity element; every reader takes it as −z of the root).  Reading the file back gives
+  Σ_base = ``world``, so g_0 and the joint-space dynamics (B, C q̇, g) are unchanged while
+  coordinates "in Σ_base" are those of ``world``.  Only the direction of g is written: a
+  magnitude other than 9.81 m/s² is passed as ``load_urdf(gravity=)``;
+* ``base`` — Σ_base, the root otherwise; a fixed joint ``base_to_sigma_0`` places ``sigma_0``
+  (Σ_0) at the robot's base transform T_base0;
 * one link per joint frame J_i, named after the robot's link i, moved by a joint named after
   the robot's joint i.  Its origin is the constant part of (K2) with the joint offset folded in,
 
@@ -38,7 +44,7 @@ import numpy as np
 from armlab.model.inertia import inertia_problem, steiner
 from armlab.model.robot import Friction, Inertial, Joint, Link, Robot
 from armlab.model.toml_io import RobotFileError, axis_alignment
-from armlab.spatial import inverse_transform, rpy_from_matrix, transform
+from armlab.spatial import hom_rot_z, inverse_transform, rpy_from_matrix, trans_z, transform
 
 STANDARD_GRAVITY = np.array([0.0, 0.0, -9.81])
 """URDF has no gravity element; by convention the root frame's z axis points up [m/s²]."""
@@ -63,7 +69,8 @@ def _fixed(root: ET.Element, name: str, parent: str, child: str, T: np.ndarray) 
 def urdf_names(robot: Robot) -> tuple[list[str], list[str]]:
     """URDF names of the links (bodies in J_i) and joints of ``robot``, made unique
     against each other and the frame links ``base``, ``sigma_0`` … ``sigma_e``."""
-    reserved = {"base", "sigma_0", "sigma_e", "base_to_sigma_0", "sigma_n_to_sigma_e"}
+    reserved = {"base", "sigma_0", "sigma_e", "base_to_sigma_0", "sigma_n_to_sigma_e",
+                "world", "world_to_base"}
     reserved |= {f"sigma_{i + 1}" for i in range(robot.n)}
     reserved |= {f"to_sigma_{i + 1}" for i in range(robot.n)}
     used = set(reserved)
@@ -79,6 +86,23 @@ def urdf_names(robot: Robot) -> tuple[list[str], list[str]]:
             result.append(candidate)
         out.append(result)
     return out[0], out[1]
+
+
+def world_rotation(robot: Robot) -> np.ndarray:
+    """R_world,base of the export: the smallest rotation taking g (in Σ_base) to −z, (3, 3);
+    the identity when g is along −z already or zero (then no ``world`` link is written)."""
+    g = robot.base[:3, :3] @ np.asarray(robot.gravity, dtype=float)
+    norm = float(np.linalg.norm(g))
+    if norm == 0.0:
+        return np.eye(3)
+    a, b = g / norm, np.array([0.0, 0.0, -1.0])
+    v, c = np.cross(a, b), float(a @ b)
+    if c < -1.0 + 1e-12:
+        return np.diag([1.0, -1.0, -1.0])  # g along +z: half a turn about x
+    K = np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
+    # Rodrigues for unit a → b: R = I + [v]× + [v]×² / (1 + c), v = a × b, c = a·b.
+    R = np.eye(3) + K + K @ K / (1.0 + c)
+    return np.eye(3) if np.allclose(R, np.eye(3), rtol=0.0, atol=1e-15) else R
 
 
 def to_urdf(robot: Robot) -> str:
@@ -97,6 +121,10 @@ def to_urdf(robot: Robot) -> str:
     m = robot.arrays
     link_names, joint_names = urdf_names(robot)
     root = ET.Element("robot", name=robot.name)
+    R_world = world_rotation(robot)
+    if not np.array_equal(R_world, np.eye(3)):
+        ET.SubElement(root, "link", name="world")
+        _fixed(root, "world_to_base", "world", "base", transform(R_world))
     ET.SubElement(root, "link", name="base")
     ET.SubElement(root, "link", name="sigma_0")
     _fixed(root, "base_to_sigma_0", "base", "sigma_0", robot.base)
@@ -189,8 +217,19 @@ def _number(path, field: str, value, default: float) -> float:
     return result
 
 
+def _listing(names, limit: int = 8) -> str:
+    names = list(names)
+    return ", ".join(names[:limit]) + (f", … ({len(names)} in all)" if len(names) > limit else "")
+
+
 def _chain(path, joints: dict, children: dict, root: str, tip: str | None) -> list:
-    """URDF joints on the path root → tip, choosing the tip when it is not given."""
+    """URDF joints on the path root → tip, choosing the tip when it is not given.
+
+    Without ``tip`` the chain ends at the only leaf link whose path holds every moving joint;
+    when several leaves qualify, or the moving joints lie on several branches, the error lists
+    the candidate tips (the leaves with the most moving joints on their path) and the link
+    where those branches split.
+    """
     parent_joint = {j.child: j for j in joints.values()}
 
     def path_to(link):
@@ -209,18 +248,26 @@ def _chain(path, joints: dict, children: dict, root: str, tip: str | None) -> li
         return path_to(tip)
     moving = {name for name, j in joints.items() if j.type in _MOVING}
     leaves = [link for link in [root, *parent_joint] if not children.get(link)]
-    full = [leaf for leaf in leaves if moving <= {j.name for j in path_to(leaf)}]
-    if not full:
-        # Two moving joints that no single root → leaf path contains: a branching tree.
-        best = max(leaves, key=lambda leaf: len(moving & {j.name for j in path_to(leaf)}))
-        off = sorted(moving - {j.name for j in path_to(best)})
-        _fail(path, f"joint[{off[0]}]",
-              f"lies on another branch than the chain root → {best}; armlab models serial "
-              "chains: pass tip= to choose one")
-    if len(full) > 1:
-        _fail(path, "tip", f"the chain ends in several links ({', '.join(sorted(full))}); "
+    count = {leaf: len(moving & {j.name for j in path_to(leaf)}) for leaf in leaves}
+    full = sorted(leaf for leaf in leaves if count[leaf] == len(moving))
+    if len(full) == 1:
+        return path_to(full[0])
+    if full:
+        _fail(path, "tip", f"the chain ends in several links ({_listing(full)}); "
               "pass tip= to choose one")
-    return path_to(full[0])
+    most = max(count.values())
+    best = sorted(leaf for leaf in leaves if count[leaf] == most)
+    # The link where the best branches split: the last link common to all their paths.
+    paths = [[root] + [j.child for j in path_to(leaf)] for leaf in best]
+    split = root
+    for links in zip(*paths, strict=False):
+        if len(set(links)) > 1:
+            break
+        split = links[0]
+    hint = f" or the link where they split ({split})" if split != root and len(best) > 1 else ""
+    _fail(path, "tip", f"the moving joints lie on several branches; the longest chains "
+          f"({most} joints) end in {_listing(best)}: pass tip= one of them{hint} (moving joints "
+          "off the chain are then locked)")
 
 
 def _axis_alignment(path, joint) -> np.ndarray:
@@ -230,8 +277,72 @@ def _axis_alignment(path, joint) -> np.ndarray:
     return transform(axis_alignment(axis))
 
 
+def _limits(path, joint) -> tuple[float, float] | None:
+    """(lower, upper) of a revolute or prismatic joint's ``<limit>``; None for no limit (a
+    continuous joint, no ``<limit>``, or the 0..0 that files write for 'not given')."""
+    if joint.type == "continuous" or joint.limit is None:
+        return None
+    field = f"joint[{joint.name}]"
+    lower = _number(path, f"{field}.limit.lower", joint.limit.lower, -np.inf)
+    upper = _number(path, f"{field}.limit.upper", joint.limit.upper, np.inf)
+    if lower == upper:
+        return None
+    if not lower < upper:
+        _fail(path, f"{field}.limit", f"lower limit {lower:g} must be below upper limit {upper:g}")
+    return lower, upper
+
+
+def _lock_values(path, joints: dict, on_chain: set, lock: dict, default: dict) -> dict:
+    """q at which each moving joint off the chain is locked.
+
+    A joint named in ``lock`` takes that value; a ``<mimic>`` joint follows its (locked)
+    master, q = multiplier · q_master + offset; a joint named in ``default`` takes that value;
+    any other joint is locked at 0 — Pinocchio's neutral configuration, the one
+    ``buildReducedModel`` is usually given — moved into the joint's limits when 0 lies outside
+    them.
+    """
+    off = {name: j for name, j in joints.items() if j.type in _MOVING and name not in on_chain}
+    for name, value in lock.items():
+        if name not in off:
+            reason = "is on the chain (only joints off it are locked)" if name in on_chain else \
+                f"is not a moving joint off the chain ({_listing(sorted(off)) or 'there is none'})"
+            _fail(path, f"lock[{name}]", reason)
+        if not math.isfinite(value):
+            _fail(path, f"lock[{name}]", f"must be a finite joint value, got {value!r}")
+    values: dict[str, float] = {}
+
+    def value_of(name, seen=()):
+        if name in values:
+            return values[name]
+        joint = off[name]
+        if name in lock:
+            value = float(lock[name])
+        elif joint.mimic is not None:
+            master = joint.mimic.joint
+            if master in on_chain:
+                _fail(path, f"joint[{name}].mimic", f"follows joint {master!r} of the chain: a side "
+                      "branch driven by the chain cannot be locked (choose another tip)")
+            if master not in off or master in seen:
+                _fail(path, f"joint[{name}].mimic", f"follows {master!r}, which is not a moving "
+                      "joint of a side branch (or the mimic tags form a cycle)")
+            multiplier = _number(path, f"joint[{name}].mimic.multiplier", joint.mimic.multiplier, 1.0)
+            offset = _number(path, f"joint[{name}].mimic.offset", joint.mimic.offset, 0.0)
+            value = multiplier * value_of(master, (*seen, name)) + offset
+        elif name in default:
+            value = float(default[name])
+        else:
+            limits = _limits(path, joint)
+            value = 0.0 if limits is None else min(max(0.0, limits[0]), limits[1])
+        values[name] = value
+        return value
+
+    for name in off:
+        value_of(name)
+    return values
+
+
 def load_urdf(path: str | Path, *, tip: str | None = None, gravity=None,
-              name: str | None = None) -> Robot:
+              name: str | None = None, lock: dict | None = None) -> Robot:
     """Load the serial chain root → ``tip`` of a URDF file as a :class:`Robot`.
 
     Parameters
@@ -242,12 +353,14 @@ def load_urdf(path: str | Path, *, tip: str | None = None, gravity=None,
         Name of the link that carries the end effector Σ_e.  By default the only leaf link whose
         path from the root holds every moving joint; when several leaves qualify (e.g. a flange
         and a tool frame) or the moving joints lie on different branches, a
-        :class:`RobotFileError` asks for ``tip``.
+        :class:`RobotFileError` lists the candidate tips.
     gravity : array_like (3,), optional
         g_0 in Σ_0 [m/s²].  By default (0, 0, −9.81) in the root frame (URDF's z-up
         convention), rotated into Σ_0.
     name : str, optional
         The robot's name; the URDF's ``<robot name>`` by default.
+    lock : dict, optional
+        Joint name → value [rad | m] at which a moving joint off the chain is locked.
 
     Returns
     -------
@@ -256,24 +369,39 @@ def load_urdf(path: str | Path, *, tip: str | None = None, gravity=None,
         link frames Σ_i are the URDF links moved by the joints; Σ_0 is the link carrying the
         first moving joint and ``base`` the fixed transform root → Σ_0; ``tool`` the fixed
         transform Σ_n → ``tip``.  Fixed children are merged into the moving link that carries
-        them (Steiner); ``<dynamics damping friction>`` become viscous and Coulomb friction;
-        URDF has no motors.
+        them (Steiner).  Moving joints off the chain (grippers, fingers, heads, other limbs)
+        are locked — at ``lock``, their mimic value or 0 moved into their limits, as
+        Pinocchio's ``buildReducedModel`` at the neutral configuration — and their links
+        merged likewise; ``robot.notes`` says which.  ``<dynamics damping friction>`` become
+        viscous and Coulomb friction; URDF has no motors.  A ``<mimic>`` on a fixed joint is
+        ignored (as by Pinocchio); on a joint of the chain it is refused (every chain joint is
+        a degree of freedom).  Limits 0..0 are read as no limit (files write them for 'not
+        given'; Pinocchio keeps them but no dynamics algorithm reads them).
     """
     path = Path(path)
     urdf = _parse(path)
-    links = {link.name: link for link in urdf.links}
+    return robot_from_tree(path, urdf.name, urdf.links, urdf.joints, tip=tip, gravity=gravity,
+                           name=name, lock=lock, file_kind="URDF")
+
+
+def robot_from_tree(path, tree_name, tree_links, tree_joints, *, tip=None, gravity=None, name=None,
+                    lock=None, file_kind="URDF", root_gravity=STANDARD_GRAVITY,
+                    default_lock=None, lock_rule="at 0 within limits unless given or mimicking") -> Robot:
+    """The serial chain root → ``tip`` of a tree of links and joints in URDF form (the records
+    of ``yourdfpy``, or any objects with their attributes), as described by :func:`load_urdf`.
+    ``path`` names the file in errors; without ``gravity`` (g_0 in Σ_0), g is ``root_gravity``
+    in the root link's frame.  ``default_lock`` (joint → value) replaces 0 as the value at which
+    joints off the chain are locked; ``lock_rule`` says how, in the note."""
+    links = {link.name: link for link in tree_links}
     joints = {}
     children: dict[str, list] = {}
-    for joint in urdf.joints:
+    for joint in tree_joints:
         field = f"joint[{joint.name}]"
         if joint.name in joints:
             _fail(path, field, "duplicate joint name")
         if joint.type not in (*_MOVING, "fixed"):
             _fail(path, f"{field}.type", f"{joint.type} joints are not supported "
                   "(armlab models fixed-base serial chains of revolute and prismatic joints)")
-        if joint.mimic is not None:
-            _fail(path, f"{field}.mimic", "mimic joints are not supported (every joint is a "
-                  "degree of freedom in armlab)")
         for role in ("parent", "child"):
             if getattr(joint, role) not in links:
                 _fail(path, f"{field}.{role}", f"no link named {getattr(joint, role)!r}")
@@ -289,10 +417,16 @@ def load_urdf(path: str | Path, *, tip: str | None = None, gravity=None,
     moving = [j for j in chain if j.type in _MOVING]
     if not moving:
         _fail(path, "joint", f"no revolute, continuous or prismatic joint between {root!r} and the tip")
+    for joint in moving:
+        if joint.mimic is not None:
+            _fail(path, f"joint[{joint.name}].mimic", f"joint {joint.name!r} of the chain follows "
+                  f"joint {joint.mimic.joint!r}: coupled joints are not supported (every chain "
+                  "joint is a degree of freedom in armlab; choose a tip before it)")
 
     # Walk the whole tree once: each link gets its body (0 = ground, i = moving link i) and its
     # pose in that body's frame (Σ_0 for the ground, the URDF child link of joint i otherwise).
     on_chain = {j.name for j in chain}
+    locked = _lock_values(path, joints, on_chain, dict(lock or {}), dict(default_lock or {}))
     moving_index = {j.name: i + 1 for i, j in enumerate(moving)}
     body_of = {root: 0}
     pose_in_body = {root: np.eye(4)}
@@ -310,8 +444,12 @@ def load_urdf(path: str | Path, *, tip: str | None = None, gravity=None,
                 placements[joint.name] = T @ _axis_alignment(path, joint)
                 body_of[joint.child], pose_in_body[joint.child] = moving_index[joint.name], np.eye(4)
             else:
-                _fail(path, f"joint[{joint.name}]", f"moves a branch off the chain {root} → "
-                      f"{chain[-1].child}; armlab models serial chains (choose another tip)")
+                # A side branch locked at q: origin · R_axis · M(q) · R_axisᵀ, a fixed joint.
+                align = _axis_alignment(path, joint)
+                q = locked[joint.name]
+                motion = hom_rot_z(q) if _MOVING[joint.type] == "revolute" else trans_z(q)
+                body_of[joint.child] = body_of[link]
+                pose_in_body[joint.child] = T @ align @ motion @ inverse_transform(align)
             if joint.child == sigma0:
                 # The ground frame Σ_0 starts at the first moving joint's parent link.
                 base = T
@@ -350,16 +488,15 @@ def load_urdf(path: str | Path, *, tip: str | None = None, gravity=None,
         inertia_origin[body] += steiner(R @ I @ R.T, m, c)
 
     robot_joints, robot_links = [], []
+    unset_limits = []
     for i, joint in enumerate(moving, start=1):
         field = f"joint[{joint.name}]"
         kind = _MOVING[joint.type]
-        limits = (-np.inf, np.inf)
-        if joint.type != "continuous" and joint.limit is not None:
-            lower = _number(path, f"{field}.limit.lower", joint.limit.lower, -np.inf)
-            upper = _number(path, f"{field}.limit.upper", joint.limit.upper, np.inf)
-            if not lower < upper:
-                _fail(path, f"{field}.limit", f"lower limit {lower:g} must be below upper limit {upper:g}")
-            limits = (lower, upper)
+        limits = _limits(path, joint)
+        if limits is None:
+            if joint.type != "continuous" and joint.limit is not None:
+                unset_limits.append(joint.name)
+            limits = (-np.inf, np.inf)
         dynamics = joint.dynamics
         viscous = _number(path, f"{field}.dynamics.damping", getattr(dynamics, "damping", None), 0.0)
         coulomb = _number(path, f"{field}.dynamics.friction", getattr(dynamics, "friction", None), 0.0)
@@ -377,12 +514,20 @@ def load_urdf(path: str | Path, *, tip: str | None = None, gravity=None,
     tip_link = chain[-1].child
     tool = pose_in_body[tip_link]
     if gravity is None:
-        g0 = base[:3, :3].T @ STANDARD_GRAVITY
+        g0 = base[:3, :3].T @ np.asarray(root_gravity, dtype=float)
     else:
         g0 = np.asarray(gravity, dtype=float)
         if g0.shape != (3,):
             raise ValueError(f"gravity must have shape (3,), got {g0.shape}")
-    return Robot(name=name or urdf.name or path.stem, joints=tuple(robot_joints),
+    notes = []
+    if locked:
+        values = ", ".join(f"{k} = {v:.6g}" for k, v in locked.items())
+        notes.append(f"{len(locked)} joint{'s' if len(locked) > 1 else ''} off the chain {root} → "
+                     f"{tip_link} locked ({lock_rule}) and lumped "
+                     f"into the links carrying them: {values}")
+    if unset_limits:
+        notes.append(f"limits lower = upper read as no limit: {', '.join(unset_limits)}")
+    return Robot(name=name or tree_name or Path(path).stem, joints=tuple(robot_joints),
                  links=tuple(robot_links), gravity=g0, base=base, tool=tool,
-                 description=f"{urdf.name}: chain {root} → {tip_link} of a URDF file",
-                 source=str(path))
+                 description=f"chain {root} → {tip_link} of the {file_kind} robot {tree_name!r}",
+                 source=str(path), notes=tuple(notes), tip=tip_link)

@@ -19,17 +19,62 @@ def bundled_robot_path(name: str) -> Path:
     return Path(str(resources.files(__name__).joinpath(f"{name}.toml")))
 
 
-def load_robot(name_or_path: str | Path) -> Robot:
-    """A bundled robot by name (``"prp"``) or a robot file (``.toml`` or ``.urdf``)."""
+def load_robot(name_or_path: str | Path, *, tip: str | None = None,
+               lock: dict | None = None) -> Robot:
+    """A robot by name or file.
+
+    ``name_or_path``: a bundled robot (``"prp"``, see :func:`bundled_robot_names`), an arm of an
+    installed description package (``"ur5"``, see :mod:`armlab.robots.zoo`), or a robot file:
+    ``.toml`` (armlab's format), ``.urdf``, or MuJoCo's ``.xml``/``.mjcf`` (needs ``mujoco``).
+    ``tip``: the link (URDF) or body (MJCF) carrying the end effector, for files whose tree
+    branches; a zoo robot has its own, which ``tip`` replaces.  ``lock``: joint name → value at
+    which a moving joint off the chain is locked (default 0 within its limits).
+    """
     text = str(name_or_path)
     if text in bundled_robot_names():
+        _no_tree_options(text, tip, lock)
         return load_robot_toml(bundled_robot_path(text))
-    path = Path(text)
-    if path.suffix.lower() == ".urdf":
+    from armlab.robots import zoo
+
+    if text in zoo.ZOO:
         from armlab.model.urdf_io import load_urdf
 
-        return load_urdf(path)
-    if path.suffix.lower() == ".toml":
+        robot = load_urdf(zoo.zoo_path(text), tip=tip or zoo.ZOO[text].tip, lock=lock, name=text)
+        return robot.replace(description=zoo.ZOO[text].description,
+                             notes=(f"from {zoo.provenance(text)}", *robot.notes))
+    path = Path(text)
+    suffix = path.suffix.lower()
+    if suffix == ".urdf":
+        from armlab.model.urdf_io import load_urdf
+
+        return load_urdf(path, tip=tip, lock=lock)
+    if suffix in (".xml", ".mjcf"):
+        from armlab.model.mjcf_io import load_mjcf
+
+        return load_mjcf(path, tip=tip, lock=lock)
+    if suffix == ".toml":
+        _no_tree_options(text, tip, lock)
         return load_robot_toml(path)
-    raise RobotFileError(text, "name", f"not a bundled robot ({', '.join(bundled_robot_names())}) "
-                         "nor a .toml or .urdf file")
+    raise RobotFileError(text, "name", f"not a bundled robot ({', '.join(bundled_robot_names())}), "
+                         f"a zoo robot ({', '.join(zoo.zoo_names())}) nor a .toml, .urdf or "
+                         ".xml (MJCF) file")
+
+
+def robot_reference(robot: Robot) -> tuple[str, str | None]:
+    """(plant, plant_tip): how a scenario file names ``robot`` so that it loads it back — a
+    bundled or zoo name, else the absolute path of its file, with the tip a URDF/MJCF tree needs."""
+    from armlab.robots import zoo
+
+    if robot.name in bundled_robot_names() and not robot.tip:
+        return robot.name, None
+    if robot.name in zoo.ZOO:
+        return robot.name, (robot.tip if robot.tip != zoo.ZOO[robot.name].tip else None)
+    return str(Path(robot.source).resolve()), robot.tip or None
+
+
+def _no_tree_options(text: str, tip, lock) -> None:
+    """armlab's robot files describe a serial chain: there is no tip to choose."""
+    for option, value in (("tip", tip), ("lock", lock)):
+        if value:
+            raise RobotFileError(text, option, "applies to URDF and MJCF files only (an armlab "
+                                 "robot file describes one serial chain)")

@@ -8,13 +8,15 @@ scenarios`` lists them)::
     description = "What the run shows."
     plant = "prp"                          # robot name or file; the true robot
     plant_link_mass = { link4 = 0.2 }      # optional overrides (Robot.with_link_mass)
+    plant_tip = "tool0"                    # optional: end-effector link of a URDF/MJCF tree
 
     [simulation]                           # keyword arguments of armlab.simulate
     t_final = 10.0                         # [s]
     dt = 0.001                             # [s]
     q0 = [0, 0, 0]
     # qd0, method ("rk4" | "adaptive"), control_period, torque_limit, log_every,
-    # dynamics ("auto" | "closed_form" | "numeric": the plant's forward dynamics)
+    # dynamics ("auto" | "closed_form" | "numeric": the plant's forward dynamics),
+    # joint_limits ("warn" | "stop" | "ignore": declared limits reported or enforced by stops)
 
     [controller]
     type = "joint_pd_gravity"              # a registered controller (armlab.registry)
@@ -74,8 +76,9 @@ for _module in DECLARING_MODULES:
     importlib.import_module(_module)
 
 SIMULATION_KEYS = {"t_final", "dt", "q0", "qd0", "method", "control_period", "torque_limit",
-                   "log_every", "limit_margin", "max_kinetic_energy", "rtol", "atol", "dynamics"}
-TOP_KEYS = {"title", "assignment", "description", "plant", "plant_link_mass", "simulation",
+                   "log_every", "limit_margin", "max_kinetic_energy", "rtol", "atol", "dynamics",
+                   "joint_limits"}
+TOP_KEYS = {"title", "assignment", "description", "plant", "plant_link_mass", "plant_tip", "simulation",
             "controller", "disturbance", "environment"}
 
 __all__ = ["Scenario", "ScenarioFileError", "bundled_scenario_names", "list_scenarios",
@@ -165,7 +168,7 @@ def _settings(simulation, path) -> dict:
                                     f"unknown key (use {', '.join(sorted(SIMULATION_KEYS))})")
         if key == "dynamics" and choice_problem(value):
             raise ScenarioFileError(path, f"simulation.{key}", choice_problem(value))
-        if key in ("method", "dynamics"):
+        if key in ("method", "dynamics", "joint_limits"):
             settings[key] = str(value)
         elif key == "log_every":
             settings[key] = integer(value, path, f"simulation.{key}")
@@ -201,9 +204,10 @@ def load_scenario_file(path) -> Scenario:
     for key in ("plant", "simulation", "controller"):
         if key not in data:
             raise ScenarioFileError(path, key, "missing")
-    plant = robot(data["plant"], data.get("plant_link_mass", {}), path, "plant")
+    plant = robot(data["plant"], data.get("plant_link_mass", {}), path, "plant", data.get("plant_tip"))
     settings = _settings(data["simulation"], path)
-    controller = build(Controller, data["controller"], path, "controller", plant=data["plant"])
+    controller = build(Controller, data["controller"], path, "controller", plant=data["plant"],
+                       plant_tip=data.get("plant_tip"))
     disturbance = _disturbance(data.get("disturbance", []), plant, path)
     environment = None
     if "environment" in data:

@@ -14,7 +14,8 @@ annotation                    what the file writes
 ``tuple[int, ...]``           an array of integers
 ``float``                     a number or an expression string (``"pi/3"``)
 ``Robot``                     a robot name or file; ``<field>_link_mass = {link = mass}``
-                              overrides masses; a required one defaults to the plant
+                              overrides masses; a required one, or one given only by its
+                              masses, defaults to the plant
 a class with registered       a table: ``type`` picks the subclass (a registered class
 subclasses                    itself needs no ``type``)
 anything else                 numbers, arrays or nested arrays of them (expressions allowed)
@@ -70,18 +71,21 @@ def integer(value, file, where) -> int:
     return int(result)
 
 
-def robot(name, overrides, file, where) -> Robot:
+def robot(name, overrides, file, where, tip=None) -> Robot:
     """The robot ``name`` (bundled name or file, relative to the scenario file) with its link
-    masses overridden by ``overrides`` ({link: mass}, the ``<where>_link_mass`` key)."""
+    masses overridden by ``overrides`` ({link: mass}, the ``<where>_link_mass`` key); ``tip``
+    (the ``<where>_tip`` key) chooses the end-effector link of a URDF/MJCF tree."""
     from armlab.robots import load_robot
 
     if not isinstance(name, str):
         raise ScenarioFileError(file, where, f"expected a robot name or file, got {name!r}")
+    if tip is not None and not isinstance(tip, str):
+        raise ScenarioFileError(file, f"{where}_tip", f"expected a link name, got {tip!r}")
     path = Path(name)
     if path.suffix and not path.is_absolute():
         path = Path(file).parent / path
     try:
-        loaded = load_robot(str(path) if path.suffix else name)
+        loaded = load_robot(str(path) if path.suffix else name, tip=tip)
     except ArmlabError as error:
         raise ScenarioFileError(file, where, str(error)) from None
     if not isinstance(overrides, dict):
@@ -116,7 +120,7 @@ def _without_none(hint):
     return hint
 
 
-def read(hint, value, file, where, plant=None):
+def read(hint, value, file, where, plant=None, plant_tip=None):
     """``value`` of the file as the annotation ``hint`` says (see the module docstring)."""
     origin = typing.get_origin(hint)
     if origin is typing.Literal:
@@ -142,7 +146,7 @@ def read(hint, value, file, where, plant=None):
     if hint is float:
         return number(value, file, where)
     if isinstance(hint, type) and hint is not object and scenario_types(hint):
-        return build(hint, value, file, where, plant)
+        return build(hint, value, file, where, plant, plant_tip)
     return numbers(value, file, where)
 
 
@@ -183,11 +187,11 @@ def _split_poses(declaration: ScenarioType, table: dict, file, where) -> dict:
     return arguments
 
 
-def build(base: type, table, file, where: str, plant: str | None = None):
+def build(base: type, table, file, where: str, plant: str | None = None, plant_tip: str | None = None):
     """An instance of the registered subclass of ``base`` that ``table`` describes.
 
-    ``where`` names the table in messages ("controller"); ``plant`` is the plant's name,
-    the default of a required ``Robot`` field (a controller's ``model``).
+    ``where`` names the table in messages ("controller"); ``plant`` is the plant's name (and
+    ``plant_tip`` its tip), the default of a required ``Robot`` field (a controller's ``model``).
     """
     if not isinstance(table, dict):
         raise ScenarioFileError(file, where, "expected a table")
@@ -195,7 +199,8 @@ def build(base: type, table, file, where: str, plant: str | None = None):
     fields = _fields(declaration.cls)
     arguments = _split_poses(declaration, table, file, where) if declaration.poses else {}
     # Keys read with another key rather than as a field of their own.
-    companions = {f"{name}_link_mass" for name, (hint, _) in fields.items() if hint is Robot}
+    companions = {f"{name}{suffix}" for name, (hint, _) in fields.items() if hint is Robot
+                  for suffix in ("_link_mass", "_tip")}
     companions |= set(declaration.poses) | ({"euler"} if declaration.poses else set())
     for key, value in table.items():
         if key == "type" or key in companions - set(fields):
@@ -206,11 +211,15 @@ def build(base: type, table, file, where: str, plant: str | None = None):
                                                             f"(use {', '.join(known)})")
         hint, _ = fields[key]
         if hint is not Robot:
-            arguments[key] = read(hint, value, file, f"{where}.{key}", plant)
+            arguments[key] = read(hint, value, file, f"{where}.{key}", plant, plant_tip)
     for name, (hint, required) in fields.items():
-        if hint is Robot and (name in table or (required and plant is not None)):
+        # An optional robot is built when named or when only its masses are overridden (it is
+        # then the plant with those masses).
+        given = name in table or f"{name}_link_mass" in table
+        if hint is Robot and (given or (required and plant is not None)):
+            tip = table.get(f"{name}_tip", None if name in table else plant_tip)
             arguments[name] = robot(table.get(name, plant), table.get(f"{name}_link_mass", {}),
-                                    file, f"{where}.{name}")
+                                    file, f"{where}.{name}", tip)
         if required and name not in arguments:
             raise ScenarioFileError(file, f"{where}.{name}", "missing")
     try:

@@ -13,10 +13,15 @@ per joint [N | N·m]:
 * :class:`QuadraticFriction`     τ_d = −F₂ q̇|q̇| (``form="drag"``), or τ_d = −F₂ q̇² (``form="seed"``)
 * :class:`CosineGravity`         τ_d = −G₂ cos q
 
-The last two are the "wrong plant" variants of seed A8, I q̈ + F q̇ + F₂ q̇² + G sin q + G₂ cos q = τ:
-terms the controller's model does not contain.  The seed writes F₂ q̇², which is not odd in q̇
-and so not a friction (it pushes towards negative q̇ whichever way the joint turns); ``"drag"``
-is the dissipative reading F₂ q̇|q̇|, ``"seed"`` reproduces the seed's equation literally.
+and, added by ``simulate(joint_limits="stop")`` rather than written by hand,
+
+* :class:`JointStop`             τ_d = unilateral spring-damper at the joint limits (S4)
+
+QuadraticFriction and CosineGravity are the "wrong plant" variants of seed A8,
+I q̈ + F q̇ + F₂ q̇² + G sin q + G₂ cos q = τ: terms the controller's model does not contain.
+The seed writes F₂ q̇², which is not odd in q̇ and so not a friction (it pushes towards
+negative q̇ whichever way the joint turns); ``"drag"`` is the dissipative reading F₂ q̇|q̇|,
+``"seed"`` reproduces the seed's equation literally.
 """
 
 from __future__ import annotations
@@ -30,7 +35,7 @@ from numba import njit
 from armlab.errors import DisturbanceSpecError
 from armlab.registry import scenario_type
 
-CONSTANT, SINUSOIDAL, STEP, QUADRATIC_FRICTION, COSINE_GRAVITY = 0, 1, 2, 3, 4
+CONSTANT, SINUSOIDAL, STEP, QUADRATIC_FRICTION, COSINE_GRAVITY, JOINT_STOP = 0, 1, 2, 3, 4, 5
 
 
 kernel = njit(cache=True)
@@ -66,10 +71,24 @@ def disturbance_into(dist, t, q, qd, tau_d_out):
                 v = qd[i]
                 tau_d_out[i] -= dist[k + i] * (v * v if seed_form else v * abs(v))
             k += n + 1
-        else:
+        elif kind == COSINE_GRAVITY:
             for i in range(n):
                 tau_d_out[i] -= dist[k + i] * np.cos(q[i])
             k += n
+        else:
+            # JOINT_STOP (S4): push back only, never pull towards the stop.
+            for i in range(n):
+                lower, upper = dist[k + i], dist[k + n + i]
+                stiffness, damping = dist[k + 2 * n + i], dist[k + 3 * n + i]
+                if q[i] > upper:
+                    force = -stiffness * (q[i] - upper) - damping * qd[i]
+                    if force < 0.0:
+                        tau_d_out[i] += force
+                elif q[i] < lower:
+                    force = -stiffness * (q[i] - lower) - damping * qd[i]
+                    if force > 0.0:
+                        tau_d_out[i] += force
+            k += 4 * n
 
 
 def _vector(value, n: int, field: str) -> np.ndarray:
@@ -152,6 +171,31 @@ class CosineGravity(TorqueDisturbance):
 
     def encode(self, n):
         return np.concatenate([[COSINE_GRAVITY], _vector(self.coefficient, n, "coefficient")])
+
+
+@dataclass(frozen=True, eq=False)
+class JointStop(TorqueDisturbance):
+    """Joint stops as stiff damped unilateral springs (S4): beyond q_max,
+
+        τ_d = min(0, −K (q − q_max) − D q̇),   and beyond q_min   τ_d = max(0, −K (q − q_min) − D q̇)
+
+    (zero between the limits).  ``lower``/``upper`` [m | rad] (±inf: no stop), ``stiffness``
+    K [N/m | N·m/rad], ``damping`` D [N·s/m | N·m·s/rad].  See ``armlab.simulation.joint_limits``
+    for the values ``simulate`` chooses."""
+
+    lower: np.ndarray
+    upper: np.ndarray
+    stiffness: np.ndarray
+    damping: np.ndarray
+
+    def encode(self, n):
+        lower, upper = (np.broadcast_to(np.asarray(v, dtype=float), (n,)) for v in (self.lower, self.upper))
+        if np.any(np.isnan(lower)) or np.any(np.isnan(upper)) or np.any(lower > upper):
+            raise DisturbanceSpecError("joint stop: limits must be ordered numbers (±inf for none)")
+        stiffness, damping = _vector(self.stiffness, n, "stiffness"), _vector(self.damping, n, "damping")
+        if np.any(stiffness < 0) or np.any(damping < 0):
+            raise DisturbanceSpecError("joint stop: stiffness and damping must be non-negative")
+        return np.concatenate([[JOINT_STOP], lower, upper, stiffness, damping])
 
 
 def encode_disturbances(terms, n: int) -> np.ndarray:

@@ -48,6 +48,7 @@ from armlab.errors import SimulationDiverged, SimulationError
 from armlab.kernels.environment import FreeSpaceParams, free_space_law
 from armlab.simulation import loop, python_loop
 from armlab.simulation.disturbances import encode_disturbances
+from armlab.simulation.joint_limits import annotate, check_mode, joint_stop
 from armlab.simulation.results import SimulationResult
 from armlab.specialise import ClosedFormUnavailable, choice_problem, plant_kernels
 
@@ -90,7 +91,7 @@ class _Setup:
 
     def __init__(self, plant, controller, q0, qd0, t_final, dt, control_period, torque_limit,
                  disturbance, environment, log_every, limit_margin, max_kinetic_energy,
-                 dynamics="auto"):
+                 dynamics="auto", joint_limits="warn"):
         if not isinstance(controller, Controller):
             raise SimulationError(f"controller: {type(controller).__name__} is not an armlab Controller")
         n = plant.n
@@ -125,7 +126,12 @@ class _Setup:
             raise SimulationError(f"limit_margin: must be a finite fraction ≥ 0, got {limit_margin!r}")
         self.q_lo, self.q_hi = _divergence_limits(plant, float(limit_margin))
         self.ke_max = float(max_kinetic_energy)
-        self.dist = encode_disturbances(disturbance, n)
+        # Joint stops (S4) act on the plant like a state-dependent disturbance term.
+        self.joint_limits = check_mode(joint_limits)
+        self.stop = joint_stop(plant, q0, self.dt) if self.joint_limits == "stop" else None
+        terms = [] if disturbance is None else (
+            [disturbance] if hasattr(disturbance, "encode") else list(disturbance))
+        self.dist = encode_disturbances(terms + ([self.stop] if self.stop is not None else []), n)
         self.disturbance = disturbance
         if environment is not None and not isinstance(environment, Environment):
             raise SimulationError(f"environment: {type(environment).__name__} is not an armlab Environment")
@@ -226,6 +232,7 @@ class _Setup:
                 "disturbance": _describe_terms(self.disturbance),
                 "environment": self.environment.describe() if self.environment is not None else None}
         info.update(meta or {})
+        annotate(plant, self.joint_limits, o_t, o_q, signals, labels, units, info, self.stop)
         return SimulationResult(t=o_t, q=o_q, qd=o_qd, qdd=o_qdd,
                                 tau=o_tau, z=o_z, signals=signals, labels=labels,
                                 units=units, meta=info, status=status, diagnosis=diagnosis)
@@ -289,7 +296,8 @@ def _finish(setup, result, status, step, joint, on_divergence):
 def simulate(plant, controller, *, q0, qd0=None, t_final, dt, method="rk4", control_period=None,
              torque_limit=None, disturbance=None, environment=None, log_every=1,
              limit_margin=0.5, max_kinetic_energy=1e6, rtol=1e-10, atol=1e-12,
-             integrator="DOP853", on_divergence="raise", dynamics="auto", meta=None) -> SimulationResult:
+             integrator="DOP853", on_divergence="raise", dynamics="auto", joint_limits="warn",
+             meta=None) -> SimulationResult:
     """Simulate ``plant`` under ``controller`` from (q0, qd0) over [0, t_final].
 
     Parameters
@@ -312,6 +320,10 @@ def simulate(plant, controller, *, q0, qd0=None, t_final, dt, method="rk4", cont
         is on disk already — made by an earlier "closed_form" request — else at once the
         RNEA/CRBA kernels), "closed_form" (made now if needed: Lagrange for up to 3 joints, the
         traced kernels beyond) or "numeric" (``armlab.specialise``).
+    joint_limits : "warn" (default: a ``JointLimitWarning`` per joint that leaves its declared
+        limits, the signal ``q_limit_excess`` and ``meta["joint_limits"]``), "stop" (the same,
+        with joint stops: stiff damped unilateral springs, S4) or "ignore"
+        (``armlab.simulation.joint_limits``).
     meta : extra JSON-able entries for ``result.meta`` (scenario name, …).
     """
     if method not in ("rk4", "adaptive"):
@@ -322,7 +334,8 @@ def simulate(plant, controller, *, q0, qd0=None, t_final, dt, method="rk4", cont
     if on_divergence not in ("raise", "return"):
         raise SimulationError(f"on_divergence: {on_divergence!r} is not 'raise' or 'return'")
     setup = _Setup(plant, controller, q0, qd0, t_final, dt, control_period, torque_limit,
-                   disturbance, environment, log_every, limit_margin, max_kinetic_energy, dynamics)
+                   disturbance, environment, log_every, limit_margin, max_kinetic_energy, dynamics,
+                   joint_limits)
     if setup.python_law is not None:
         return _run_python(setup, controller.params(), meta, on_divergence, method, rtol, atol, integrator)
     if method == "rk4":
@@ -424,7 +437,7 @@ def _run_adaptive(setup, cparams, meta, on_divergence, rtol, atol, integrator):
 
 def simulate_batch(plant, controllers, *, q0, qd0=None, t_final, dt, torque_limit=None,
                    disturbance=None, environment=None, log_every=1, limit_margin=0.5,
-                   max_kinetic_energy=1e6, workers=None, dynamics="auto",
+                   max_kinetic_energy=1e6, workers=None, dynamics="auto", joint_limits="warn",
                    meta=None) -> list[SimulationResult]:
     """RK4 runs of many controllers (a gain sweep) in parallel on all cores.
 
@@ -443,7 +456,7 @@ def simulate_batch(plant, controllers, *, q0, qd0=None, t_final, dt, torque_limi
 
     def setup_of(controller):
         return _Setup(plant, controller, q0, qd0, t_final, dt, None, torque_limit, disturbance,
-                      environment, log_every, limit_margin, max_kinetic_energy, dynamics)
+                      environment, log_every, limit_margin, max_kinetic_energy, dynamics, joint_limits)
 
     # The first set-up checks the shared arguments before any run starts; the others are made
     # by the workers, so that this Python work overlaps the other threads' compiled loops.

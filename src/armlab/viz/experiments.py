@@ -12,18 +12,46 @@ from __future__ import annotations
 import re
 import tomllib
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 
 from armlab.errors import ReportError
 from armlab.model.robot import Robot
 from armlab.scenarios import list_scenarios, load_scenario
+from armlab.theory import predictions
 from armlab.viz.drawing import Plane
 from armlab.viz.metrics import Metric
 
 COMPANIONS = {"prp": ("link1",)}
 QUICK_T_FINAL = 2.0  # [s] length of every run in --quick mode
 HIDDEN_KEYS = {"title", "assignment", "description"}
+# The seed's order within each assignment (its option 1 before option 3, free motion before
+# contact): the report lists an assignment's experiments so, then any others by name.
+SEED_ORDER = (
+    "a6_pd_online", "a6_pd_none", "a6_pd_desired", "a6_pd_desired_global", "a6_pd_sine", "a6_pd_ramp",
+    "a6_pd_sine_disturbance", "a6_pd_ramp_disturbance",
+    "a7_id_via_points", "a7_id_regulation", "a7_id_mismatch", "a7_id_mismatch_regulation",
+    "a7_id_mismatch_whole_model", "a7_id_mismatch_whole_model_regulation",
+    "a7_id_high_gain", "a7_id_high_gain_saturated", "a7_id_higher_gain", "a7_id_higher_gain_saturated",
+    "a8_case1_sine", "a8_case1_wrong_plant1", "a8_case1_wrong_plant1_seed_form", "a8_case1_wrong_plant2",
+    "a8_case2_square", "a8_case2_square_faster", "a8_case2_wrong_plant1", "a8_case2_wrong_plant2",
+    "a09_pd_goal", "a09_pd_goal_rotation", "a09_pd_near_singular",
+    "a10_id_regulation", "a10_id_via_poses", "a10_id_random_goals", "a10_id_rotation_damped",
+    "a11_compliance", "a11_compliance_diagonal",
+    "a12_impedance_regulation", "a12_impedance_tracking",
+    "a13_admittance_regulation", "a13_admittance_tracking",
+    "a14_force_inner_position", "a14_force_inner_position_y_only",
+    "a14_force_inner_velocity", "a14_force_inner_velocity_z",
+    "a15_parallel_free", "a15_parallel_contact", "a15_parallel_contact_wall", "a15_parallel_outside_image",
+)
+"""The seed's order of its experiments, each improved variant right after the seed's own."""
+
+
+def seed_rank(name: str) -> tuple[int, str]:
+    """Sort key of a scenario within its assignment: its place in :data:`SEED_ORDER`, then
+    (scenarios not listed there) its name."""
+    return (SEED_ORDER.index(name), "") if name in SEED_ORDER else (len(SEED_ORDER), name)
 
 
 @dataclass
@@ -46,6 +74,7 @@ class Experiment:
     scenario: str | None = None
     t_final: float | None = None
     kind: str = ""
+    predicted: list = field(default_factory=list)   # rows of armlab.theory.predictions
 
     def run(self):
         """Run the scenario: ``runner()`` returns its SimulationResult."""
@@ -125,13 +154,40 @@ def experiment_from_scenario(scenario, t_final: float | None = None) -> Experime
     return Experiment(name=scenario.name, assignment=number, title=scenario.title,
                       description=scenario.description, parameters=parameters, robot=scenario.plant,
                       plane=environment_plane(scenario.environment), runner=runner,
-                      scenario=scenario.name, t_final=short, kind=type(scenario.controller).__name__)
+                      scenario=_reloadable(scenario), t_final=short, kind=type(scenario.controller).__name__,
+                      predicted=predictions(scenario))
 
 
-def discover(robot: Robot, *, quick: bool = False) -> list[Experiment]:
+def _reloadable(scenario) -> str:
+    """What a worker process loads the scenario by: its file (a generated course reuses the
+    bundled names), or its name when it has none."""
+    return str(scenario.source) if scenario.source else scenario.name
+
+
+def discover(robot: Robot, *, quick: bool = False, course_dir=None) -> list[Experiment]:
     """Every registered scenario of ``robot`` as an :class:`Experiment` ready to run, by
-    assignment; ``quick`` shortens each run to :data:`QUICK_T_FINAL`."""
+    assignment and in the seed's order (:data:`SEED_ORDER`); ``quick`` shortens each run to
+    :data:`QUICK_T_FINAL`.  A robot without bundled scenarios gets the course generated for it
+    (:mod:`armlab.course`), written to ``course_dir`` (a temporary folder if None) so that each
+    experiment's file can be rerun."""
+    scenarios = [s for s in list_scenarios() if _belongs(s.plant.name, robot.name)]
+    if not scenarios:
+        scenarios = _course(robot, course_dir)
     experiments = [experiment_from_scenario(scenario, QUICK_T_FINAL if quick else None)
-                   for scenario in list_scenarios() if _belongs(scenario.plant.name, robot.name)]
-    experiments.sort(key=lambda e: (e.assignment, e.name))
+                   for scenario in scenarios]
+    experiments.sort(key=lambda e: (e.assignment, *seed_rank(e.name)))
     return experiments
+
+
+def _course(robot: Robot, folder) -> list:
+    """The scenarios :mod:`armlab.course` generates for ``robot``, loaded from their files."""
+    import tempfile
+
+    from armlab.course import write_course
+    from armlab.robots import robot_reference
+    from armlab.scenarios import load_scenario_file
+
+    reference, tip = robot_reference(robot)
+    folder = Path(folder) if folder is not None else Path(tempfile.mkdtemp(prefix="armlab-course-"))
+    paths, _ = write_course(robot, reference, folder, tip=tip)
+    return [load_scenario_file(path) for path in paths]

@@ -45,8 +45,10 @@ td.num { text-align: right; font-variant-numeric: tabular-nums; font-family: "De
 .tables { display: flex; flex-wrap: wrap; gap: 0 24px; align-items: flex-start; }
 .tables td { max-width: 250px; overflow-wrap: anywhere; }
 .tables td.num { font-size: 12.5px; white-space: nowrap; }
+/* A formula too wide for the space beside its label goes under it; one still too wide (a single
+   term wider than the page) scrolls inside its box. */
 .formula { margin: 8px 0; overflow-x: auto; overflow-y: hidden; padding: 2px 0; display: flex;
-           align-items: center; gap: 18px; }
+           flex-wrap: wrap; align-items: center; gap: 4px 18px; }
 .formula .label { flex: 0 0 250px; }
 .formula math { margin: 0; }
 math { font-family: "DejaVu Math TeX Gyre", "STIX Two Math", "Latin Modern Math", math; }
@@ -61,6 +63,14 @@ math[display="block"] { font-size: 17px; text-align: left; }
 .diverged { color: var(--bad); font-weight: 600; }
 .missing { color: var(--muted); font-style: italic; }
 .note { color: var(--muted); font-size: 13.5px; }
+.seed-note { max-width: 1000px; margin: 10px 0 16px; padding: 8px 16px; background: #f4f7fb;
+             border-left: 3px solid var(--accent); font-size: 14px; }
+.seed-note h3 { margin: 2px 0 4px; font-size: 16px; }
+.seed-note h4 { margin: 8px 0 2px; font-size: 14px; }
+.seed-note ul { margin: 4px 0; padding-left: 20px; }
+.seed-note p { margin: 4px 0; }
+.seed-note pre { font: 12.5px/1.4 "DejaVu Sans Mono", monospace; background: #eef1f5; padding: 6px 10px;
+                 overflow-x: auto; }
 code { font-family: "DejaVu Sans Mono", monospace; font-size: 13px; background: #eef1f5;
        padding: 1px 4px; border-radius: 3px; }
 """

@@ -5,9 +5,12 @@ plots a control engineer expects without plotting code of its own:
 
 * ``positions``  — q with its reference ``q_des`` (any group ``X`` with ``X_des`` or ``X_d``
   is drawn against it the same way, e.g. ``p`` and ``p_des``; an admittance controller's
-  compliant frame ``p_t`` is drawn with them; the internal x_d = 0 of pure force control is not);
+  compliant frame ``p_t`` is drawn with them; the internal x_d = 0 of pure force control is not;
+  against a spring environment, ``p`` with the spring's rest position Σ_r);
 * ``<X>_err``    — every error signal, one panel per component, with its final value and the
-  frame its components are expressed in when the controller's description names it;
+  frame its components are expressed in when the controller's description names it; a
+  computed-torque run's q̃ with the designed response q̃̈ + K_D q̃̇ + K_P q̃ = 0 from the run's
+  own initial error (:mod:`armlab.viz.theory`);
 * ``torques``    — applied τ, commanded τ (``tau_cmd``) and the saturation limits ±τ_max (said
   to be off-scale where they would flatten the trace);
 * ``forces``     — the contact wrench h_e against the desired force (``f_d``/``f_des``/``h_d``),
@@ -32,7 +35,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from armlab.viz.theory import linear_response
+
 ACTUAL, DESIRED, LIMIT, COMMAND, COMPLIANT = "#1f5fd6", "#222222", "#d62728", "#f09030", "#2ca02c"
+THEORY, REST = "#9467bd", "#8c564b"  # a response the theory predicts; the environment's rest pose
+# Controllers whose error obeys q̃̈ + K_D q̃̇ + K_P q̃ = 0 with an exact model (A7).
+COMPUTED_TORQUE = ("JointInverseDynamics",)
 # Traces of one panel differ in colour, dash and width, widest first: a trace drawn over an
 # identical one (σ1 = σ2 = 1) leaves the one below visible around its dashes.
 TRACE_COLOURS = ("#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b")
@@ -220,8 +228,23 @@ def _tracking_scopes(run: _Run) -> list[Scope]:
         else:
             panels = _tracking(run, name, ref)
             title = f"{pretty(name)} and its reference {pretty(ref)}"
+        if name == "p" and _rest_position(run) is not None:
+            rest = dict(color=REST, lw=1.0, ls=(0, (6, 3)), label="Σ_r (spring rest)")
+            for panel, value in zip(panels, _rest_position(run), strict=False):
+                panel.hlines.append((value, rest))
+            title += ", spring rest Σ_r"
         scopes.append(Scope(name, title, panels))
     return scopes
+
+
+def _rest_position(run: _Run) -> np.ndarray | None:
+    """The rest position [m] (in Σ_0) of a spring environment, None for none or a wall."""
+    environment = run.result.meta.get("environment")
+    rest = environment.get("rest_position") if isinstance(environment, dict) else None
+    if rest is None:
+        return None
+    rest = np.asarray(rest, dtype=float)
+    return rest if rest.shape == (3,) and np.all(np.isfinite(rest)) else None
 
 
 # ----------------------------------------------------------------------------- errors
@@ -252,8 +275,36 @@ def _error_scopes(run: _Run) -> list[Scope]:
             panel.note_at = _level(data[-1, k])
             panels.append(panel)
         run.used.add(name)
-        scopes.append(Scope(name, _error_title(run, name), panels))
+        caption = ""
+        designed = designed_error(run.result) if name == "q_err" else None
+        if designed is not None:
+            for k, panel in enumerate(panels):
+                panel.curves.append(("designed", run.t, designed[:, k], dict(color=THEORY, lw=1.2, ls="--")))
+            caption = ("designed: the solution of q̃̈ + K_D q̃̇ + K_P q̃ = 0 from the run's q̃(0), q̃̇(0), "
+                       "which an exact model and unsaturated torques give; where the run leaves it, the "
+                       "model or the actuators differ from the design.")
+        scopes.append(Scope(name, _error_title(run, name), panels, caption=caption))
     return scopes
+
+
+def designed_error(result) -> np.ndarray | None:
+    """q̃(t) (N, n) of the designed loop q̃̈ + K_D q̃̇ + K_P q̃ = 0 from the run's initial error,
+    for a computed-torque run that logged q̃ and q̃̇ (None otherwise)."""
+    controller = result.meta.get("controller")
+    controller = controller if isinstance(controller, dict) else {}
+    if controller.get("type") not in COMPUTED_TORQUE or not {"q_err", "qd_err"} <= set(result.signals):
+        return None
+    kp, kd = controller.get("kp"), controller.get("kd")
+    error, rate = result.signals["q_err"], result.signals["qd_err"]
+    if kp is None or kd is None or error.shape != rate.shape:
+        return None
+    n = error.shape[1]
+    try:
+        K, D = (np.broadcast_to(np.asarray(g, dtype=float), (n, n)) if np.ndim(g) == 2
+                else np.diag(np.broadcast_to(np.asarray(g, dtype=float), (n,))) for g in (kp, kd))
+    except ValueError:
+        return None
+    return linear_response(np.eye(n), D, K, np.asarray(result.t), error[0], rate[0])
 
 
 # ----------------------------------------------------------------------------- torques
@@ -272,7 +323,9 @@ def _torque_scope(run: _Run) -> Scope:
             panel.curves.append(("commanded", run.t, result.signals["tau_cmd"][:, k],
                                  dict(color=COMMAND, lw=1.1, ls="--")))
         if "tau_dist" in result.signals:
-            panel.curves.append(("disturbance", run.t, result.signals["tau_dist"][:, k],
+            stops = (result.meta.get("joint_limits") or {}).get("mode") == "stop"
+            panel.curves.append(("disturbance + stop" if stops else "disturbance", run.t,
+                                 result.signals["tau_dist"][:, k],
                                  dict(color="0.45", lw=1.0, ls=":")))
         if limit is not None and np.isfinite(limit[k]):
             if limit[k] > OFF_SCALE * _peak(y for _, _, y, _ in panel.curves):

@@ -1,12 +1,16 @@
-"""Numbers that show a closed-loop behaviour, measured on a :class:`SimulationResult`.
+"""The report's metric tables, measured on a :class:`SimulationResult`.
 
-* steady-state error of every error signal ``*_err``: the mean over the last 5 % of the run;
-* settling time: the last time |e_i| is outside a band of 2 % of its peak |e_i| (a run whose
-  last sample is still outside the band has not settled);
-* RMS tracking error over the second half of the run (the regime of a periodic reference);
-* peak |τ_i| and the fraction of the run spent at the saturation limit;
-* final contact force (last 5 %) and its error against the desired force;
-* final parameter estimates against the true values.
+The definitions (final value and oscillation over the last 5 % of the run, settling into a
+2 % band around the final value, overshoot) are those of :mod:`armlab.metrics`, printed in the
+report from its docstring.  Rows, per component:
+
+* every error signal ``*_err``: steady state (mean and RMS oscillation over the window), its
+  settling time, its overshoot, and the RMS over the second half of the run (the regime of a
+  periodic reference);
+* peak |τ_i| and the share of the run spent at the saturation limit;
+* final contact wrench (window mean) and its error against the desired force;
+* final parameter estimates against the true values;
+* the theory's predictions (:func:`armlab.theory.predictions`) beside the measured value.
 
 A diverged run's diagnosis is not a metric: the report prints it next to the table.
 
@@ -19,10 +23,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from armlab.metrics import WINDOW, overshoot, settling_time, steady_state, tail_slice, time_at_limit
 from armlab.viz.layout import FORCE_REFERENCES, pretty
-
-TAIL = 0.05
-BAND = 0.02
 
 
 @dataclass(frozen=True)
@@ -44,35 +46,11 @@ class Metric:
         return f"{self.value:.3g}" if 1e-3 <= magnitude < 1e4 else f"{self.value:.2e}"
 
 
-def tail_slice(t: np.ndarray, fraction: float = TAIL) -> slice:
-    """The samples of the last ``fraction`` of the time span (at least one)."""
-    start = t[-1] - fraction * (t[-1] - t[0])
-    first = int(np.searchsorted(t, start, side="left"))
-    return slice(min(first, t.size - 1), None)
-
-
-def settling_time(t: np.ndarray, e: np.ndarray, band: float = BAND) -> float | None:
-    """Time [s] after which |e| stays within ``band`` × max|e|; None if it never does.
-
-    Returns ``t[0]`` for a signal that is zero throughout.
-    """
-    magnitude = np.abs(e)
-    peak = float(np.nanmax(magnitude))
-    if peak == 0.0:
-        return float(t[0])
-    outside = np.flatnonzero(magnitude > band * peak)
-    if outside.size == 0:
-        return float(t[0])
-    last = int(outside[-1])
-    if last == t.size - 1:
-        return None
-    return float(t[last + 1])
-
-
-def measure(result) -> list[Metric]:
-    """Every metric of the module docstring that ``result`` has the signals for."""
+def measure(result, predicted=()) -> list[Metric]:
+    """Every metric of the module docstring that ``result`` has the signals for; ``predicted``
+    the :class:`armlab.theory.Prediction` s of its scenario."""
     t = np.asarray(result.t)
-    tail = tail_slice(t)
+    tail = tail_slice(t, WINDOW)
     half = slice(t.size // 2, None)
     rows: list[Metric] = []
     for name, data in result.signals.items():
@@ -81,11 +59,15 @@ def measure(result) -> list[Metric]:
         for k, label in enumerate(result.labels[name]):
             unit = result.units[name][k]
             component = pretty(label)
-            final = float(np.mean(data[tail, k]))
-            rows.append(Metric(f"steady-state {pretty(name)}", component, final, unit))
+            final, rms, _ = steady_state(t, data[:, k])
+            rows.append(Metric(f"steady-state {pretty(name)} (mean, last 5 %)", component, final, unit))
+            rows.append(Metric(f"oscillation of {pretty(name)} (RMS, last 5 %)", component, rms, unit))
             ts = settling_time(t, data[:, k])
-            rows.append(Metric(f"settling time (2 %) of {pretty(name)}", component,
-                               "not settled" if ts is None else ts, "" if ts is None else "s"))
+            rows.append(Metric(f"settling time (2 % band about the final value) of {pretty(name)}",
+                               component, "not settled" if ts is None else ts, "" if ts is None else "s"))
+            over = overshoot(t, data[:, k])
+            if over is not None:
+                rows.append(Metric(f"overshoot of {pretty(name)}", component, over, "%"))
             rows.append(Metric(f"RMS {pretty(name)} (2nd half)", component,
                                float(np.sqrt(np.mean(data[half, k] ** 2))), unit))
     limit = result.meta.get("torque_limit")
@@ -94,9 +76,8 @@ def measure(result) -> list[Metric]:
         unit = result.units["tau"][k]
         rows.append(Metric("peak |τ|", pretty(label), float(np.max(np.abs(result.tau[:, k]))), unit))
         if limits is not None and np.isfinite(limits[k]):
-            saturated = np.abs(result.tau[:, k]) >= limits[k] * (1.0 - 1e-9)
-            share = 100.0 * float(np.mean(saturated))
-            rows.append(Metric("time at the torque limit", pretty(label), share, "%"))
+            rows.append(Metric("time at the torque limit", pretty(label),
+                               time_at_limit(result.tau[:, k], limits[k]), "%"))
     if "h_e" in result.signals:
         h = result.signals["h_e"]
         ref = next((r for r in FORCE_REFERENCES if r in result.signals), None)
@@ -136,4 +117,15 @@ def measure(result) -> list[Metric]:
             mismatch = np.sum(regressor * (result.z - np.asarray(true_values, dtype=float)), axis=1)
             rows.append(Metric("RMS Y(π̂ − π) (2nd half)", "", float(np.sqrt(np.mean(mismatch[half] ** 2))),
                                result.units["tau"][0]))
+    for prediction in predicted:
+        try:
+            run = None if prediction.measured is None else prediction.measured(result)
+        except (KeyError, IndexError):   # a run stopped early may lack what is measured
+            run = None
+        for k, label in enumerate(prediction.labels):
+            rows.append(Metric(f"{prediction.quantity}, theory", pretty(label),
+                               float(prediction.values[k]), prediction.units[k]))
+            if run is not None:
+                rows.append(Metric(f"{prediction.quantity}, run", pretty(label), float(run[k]),
+                                   prediction.units[k]))
     return rows

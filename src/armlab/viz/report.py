@@ -20,6 +20,8 @@ import os
 import threading
 import time
 import traceback
+import warnings
+from dataclasses import replace
 from pathlib import Path
 
 import matplotlib.pyplot as plt
@@ -28,8 +30,10 @@ import numpy as np
 from armlab.errors import ArmlabError
 from armlab.model.robot import Robot
 from armlab.robots import load_robot
+from armlab.simulation.joint_limits import JointLimitWarning, describe_crossing
 from armlab.viz import html
 from armlab.viz.animation import animate_robot, joint_spans, motion_window
+from armlab.viz.comparisons import COMPARISONS, comparison_scope, impedance_scope
 from armlab.viz.drawing import draw_robot
 from armlab.viz.experiments import (  # noqa: F401 — ReportError, assignment_number: public here too
     Experiment,
@@ -39,6 +43,7 @@ from armlab.viz.experiments import (  # noqa: F401 — ReportError, assignment_n
     experiment_from_scenario,
 )
 from armlab.viz.metrics import Metric, measure
+from armlab.viz.notes import markdown_html, metric_definitions, seed_notes, source_name
 from armlab.viz.progress import Progress
 from armlab.viz.scopes import SCOPE_DPI, scope_layout, scope_png
 
@@ -99,6 +104,50 @@ def _drawings(robot: Robot) -> str:
     return '<div class="figures">' + "".join(parts) + "</div>"
 
 
+def _derivation_cache(robot: Robot) -> Path:
+    """The file that keeps the HTML of ``robot``'s A1–A5 derivations: named by a hash of the
+    robot's numbers and expressions, of every source the HTML depends on (the symbolic model,
+    its rendering, this page's pieces) and of SymPy's version, so that any change derives anew."""
+    import hashlib
+    from importlib.metadata import version
+
+    from armlab.specialise.closed_form import cache_dir, robot_key
+
+    package = Path(__file__).resolve().parents[1]
+    # SymPy's version from its metadata: importing SymPy costs seconds a cached report saves.
+    digest = hashlib.sha256(robot_key(robot).encode() + version("sympy").encode())
+    for path in [*sorted((package / "symbolic").glob("*.py")), package / "viz" / "html.py", Path(__file__)]:
+        digest.update(path.read_bytes())
+    return cache_dir() / "report" / f"derivations_{digest.hexdigest()[:24]}.json"
+
+
+def _cached_symbolic_sections(robot: Robot, progress: Progress) -> dict[int, str]:
+    """:func:`_symbolic_sections`, kept on disk (ARMLAB_CACHE_DIR) after the first report:
+    SymPy spends tens of seconds on them, the rest of a ``--quick`` report a few.  A cache
+    that cannot be read or written is derived around, never trusted half-written."""
+    import json
+
+    path = _derivation_cache(robot)
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+        if isinstance(data, dict) and all(isinstance(v, str) for v in data.values()):
+            progress.step("derivations A1–A5 (cached)")
+            for _ in data:
+                progress.advance()
+            return {int(k): v for k, v in data.items()}
+    except (OSError, ValueError):
+        pass
+    sections = _symbolic_sections(robot, progress)
+    partial = path.with_name(f"{path.name}.{os.getpid()}.tmp")
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        partial.write_text(json.dumps({str(k): v for k, v in sections.items()}), encoding="utf-8")
+        os.replace(partial, path)  # whole or not at all
+    except OSError:
+        partial.unlink(missing_ok=True)
+    return sections
+
+
 def _symbolic_sections(robot: Robot, progress: Progress) -> dict[int, str]:
     """HTML of the A1–A5 derivations by assignment number.
 
@@ -154,13 +203,18 @@ def _experiment_html(exp: Experiment) -> str:
         headers, rows = metric_table(exp.metrics)
         tables.append(html.table(headers, rows, numeric=set(range(1, len(headers))),
                                  caption=f"measured on the run (simulated in {exp.seconds:.1f} s wall time, "
-                                         "compilation included)"))
+                                         "compilation included; definitions at the end of the report)"))
     parts.append('<div class="tables">' + "".join(tables) + "</div>")
     result = exp.result
     if exp.error:
         parts.append(f'<p class="diverged">{html.escape(exp.error)}</p>')
     elif result is not None and getattr(result, "status", "ok") != "ok":
         parts.append(f'<p class="diverged">{html.escape(result.diagnosis)}</p>')
+    limits = (getattr(result, "meta", None) or {}).get("joint_limits") or {}
+    for name, crossing in (limits.get("crossed") or {}).items():
+        # A declared joint limit left (or a stop met) is part of what the run shows.
+        line = describe_crossing(exp.robot, name, crossing, limits.get("mode", "warn"))
+        parts.append(f'<p class="diverged">{html.escape(line)}</p>')
     if exp.figures:
         items = [html.figure(html.png_data_uri(data), caption, kind="scope", ident=f"fig-{exp.name}-{scope}")
                  for scope, caption, data in exp.figures]
@@ -173,11 +227,47 @@ def _scope_figures(exp: Experiment) -> list[tuple[str, str, bytes]]:
     result = exp.result
     figures = []
     diagnosis = result.diagnosis if result.status != "ok" else ""
-    for scope in scope_layout(result):
+    for scope in [*scope_layout(result), *_theory_scopes(exp)]:
         caption = f"{exp.name}: {scope.title}" + (f". {scope.caption}" if scope.caption else "")
         data = scope_png(scope, title_prefix=exp.name, diagnosis=diagnosis, dpi=SCOPE_DPI)
         figures.append((scope.name, caption, data))
     return figures
+
+
+def _theory_scopes(exp: Experiment) -> list:
+    """The linear system an impedance run is designed to follow, over the run (A12); the
+    controller's M_d and Σ_d are read from its scenario, which the result does not log."""
+    controller = exp.result.meta.get("controller")
+    impedance = isinstance(controller, dict) and controller.get("type") == "ImpedanceControl"
+    if exp.scenario is None or not impedance:
+        return []
+    from armlab.scenarios import load_scenario
+
+    law = load_scenario(exp.scenario).controller
+    scope = impedance_scope(exp.result, law.mass, law.reference)
+    return [] if scope is None else [scope]
+
+
+def _comparisons_html(planned: list[Experiment]) -> dict[int, list[str]]:
+    """The figures of :data:`armlab.viz.comparisons.COMPARISONS` whose two runs the report
+    has, as HTML blocks by assignment."""
+    runs = {e.name: e.result for e in planned if e.result is not None and len(e.result.t) >= 2}
+    blocks: dict[int, list[str]] = {}
+    for comparison in COMPARISONS:
+        if not all(name in runs for name in comparison.runs):
+            continue
+        scope = comparison_scope(comparison, *(runs[name] for name in comparison.runs))
+        # The caption is the article's text above the figure, not repeated under its axes.
+        data = scope_png(replace(scope, caption=""), title_prefix=f"A{comparison.assignment}", dpi=SCOPE_DPI)
+        ident = f"cmp-{comparison.name}"
+        caption = f"{' and '.join(comparison.runs)}: {scope.title}"
+        blocks.setdefault(comparison.assignment, []).append(
+            f'<article class="experiment" id="{ident}" data-comparison="{ident}">'
+            f"<h3>Comparison: {html.escape(scope.title)}</h3>"
+            f'<p class="description">{html.escape(scope.caption)}</p><div class="figures">'
+            f'{html.figure(html.png_data_uri(data), caption, kind="scope", ident=f"fig-{ident}")}'
+            "</div></article>")
+    return blocks
 
 
 def evaluate(exp: Experiment) -> Experiment:
@@ -189,7 +279,10 @@ def evaluate(exp: Experiment) -> Experiment:
     started = time.perf_counter()
     if exp.result is None and not exp.error:
         try:
-            exp.result = exp.run()
+            with warnings.catch_warnings():
+                # Shown in the report itself, next to the run.
+                warnings.simplefilter("ignore", JointLimitWarning)
+                exp.result = exp.run()
         except ArmlabError as error:
             exp.error = f"{type(error).__name__}: {error}"
             exp.result = getattr(error, "result", None)
@@ -198,7 +291,7 @@ def evaluate(exp: Experiment) -> Experiment:
             traceback.print_exc()
         exp.seconds = time.perf_counter() - started
     if exp.result is not None and len(exp.result.t) >= 2:
-        exp.metrics = measure(exp.result)
+        exp.metrics = measure(exp.result, exp.predicted)
         exp.figures = _scope_figures(exp)
     exp.runner = None  # closures do not cross process boundaries
     return exp
@@ -309,7 +402,8 @@ def build_report(robot: str | Robot = "prp", out_dir: str | Path = "report", *, 
     Parameters
     ----------
     robot : name of a bundled robot, a robot file, or a Robot
-    quick : shorten every run (the registry's quick settings) for a fast preview and tests
+    quick : a fast preview: the first scenario of each assignment (seed order), each run
+        shortened to the registry's quick length
     experiments : optional list of :class:`Experiment` to run instead of the registry's
         scenarios of the robot (used by tests)
     animation : add a GIF of one run
@@ -322,7 +416,10 @@ def build_report(robot: str | Robot = "prp", out_dir: str | Path = "report", *, 
         robot = load_robot(robot)
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
-    planned = list(experiments) if experiments is not None else discover(robot, quick=quick)
+    planned = (list(experiments) if experiments is not None
+               else discover(robot, quick=quick, course_dir=out_dir / "course"))
+    if quick and experiments is None:
+        planned = first_of_each_assignment(planned)
     progress = Progress(len(planned) + 7, enabled=show_progress)
 
     def here():
@@ -332,7 +429,7 @@ def build_report(robot: str | Robot = "prp", out_dir: str | Path = "report", *, 
         drawn = _drawings(robot)
         progress.advance()
         try:
-            derived = _symbolic_sections(robot, progress)
+            derived = _cached_symbolic_sections(robot, progress)
         except Exception as error:  # a robot SymPy cannot derive still gets its experiments
             derived = {1: f'<p class="diverged">Symbolic derivation failed: {html.escape(error)}</p>'}
         return drawn, derived
@@ -359,6 +456,8 @@ def build_report(robot: str | Robot = "prp", out_dir: str | Path = "report", *, 
     bodies: dict[int, list[str]] = {}
     for exp in planned:
         bodies.setdefault(exp.assignment, []).append(_experiment_html(exp))
+    for number, blocks in _comparisons_html(planned).items():
+        bodies.setdefault(number, []).extend(blocks)
 
     movie = ""
     if animation:
@@ -383,8 +482,17 @@ def build_report(robot: str | Robot = "prp", out_dir: str | Path = "report", *, 
             missing.append(f"A{number}")
             continue
         sections.append(f'<section class="assignment" id="A{number}" data-assignment="A{number}">'
-                        f"<h2>A{number} — {html.escape(title)}</h2>{content}</section>")
+                        f"<h2>A{number} — {html.escape(title)}</h2>{_seed_note_html(number)}{content}"
+                        "</section>")
         nav.append((f"A{number}", f"A{number}"))
+    if any(exp.metrics for exp in planned):
+        sections.append('<section class="assignment" id="metrics" data-assignment="metrics">'
+                        "<h2>How the measured numbers are defined</h2>"
+                        f'<div class="seed-note">{metric_definitions()}'
+                        '<p class="note">From the docstrings of armlab.metrics and armlab.viz.metrics, which '
+                        'compute them.</p>'
+                        "</div></section>")
+        nav.append(("metrics", "metrics"))
     unnumbered = [b for k, v in bodies.items() if k not in ASSIGNMENTS for b in v]
     if unnumbered:
         sections.append('<section class="assignment" id="other" data-assignment="other">'
@@ -406,6 +514,25 @@ def build_report(robot: str | Robot = "prp", out_dir: str | Path = "report", *, 
     path.write_text(page, encoding="utf-8")
     progress.close(f"wrote {path} ({path.stat().st_size / 1e6:.1f} MB)")
     return path
+
+
+def _seed_note_html(number: int) -> str:
+    """Assignment ``number``'s notes on the seed, read from its docs page now (one source for
+    the docs and the report); a line saying they are missing when the page is not there."""
+    notes = seed_notes(number)
+    if not notes:
+        return ""
+    parts = ['<aside class="seed-note"><h3>The seed and armlab</h3>']
+    for heading, text in notes:
+        parts.append(f"<h4>{html.escape(heading)}</h4>{markdown_html(text)}")
+    parts.append(f'<p class="note">From {html.escape(source_name(number))}.</p></aside>')
+    return "".join(parts)
+
+
+def first_of_each_assignment(planned: list[Experiment]) -> list[Experiment]:
+    """The first experiment of every assignment, in order (what ``--quick`` runs)."""
+    seen: set[int] = set()
+    return [e for e in planned if not (e.assignment in seen or seen.add(e.assignment))]
 
 
 def _drawings_block(drawings: str) -> str:

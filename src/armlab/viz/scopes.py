@@ -11,6 +11,7 @@ same picture as PNG bytes faster, drawn on a figure kept for the next scope with
 
 from __future__ import annotations
 
+import re
 import textwrap
 import threading
 from pathlib import Path
@@ -81,6 +82,12 @@ def decimate(t: np.ndarray, y: np.ndarray, max_points: int = MAX_POINTS) -> tupl
 
 def _scenario_name(result) -> str:
     return str(result.meta.get("scenario") or result.meta.get("name") or result.meta.get("plant", "run"))
+
+
+def file_stem(result) -> str:
+    """The run's name as a file-name prefix: its scenario's name, characters other than
+    letters, digits, '.', '-' and '_' replaced by '_' (a name never leaves ``out_dir``)."""
+    return re.sub(r"[^\w.-]", "_", _scenario_name(result)).lstrip(".") or "run"
 
 
 def _rounding_noise(panel: Panel) -> bool:
@@ -281,7 +288,9 @@ def scope_png(scope: Scope, *, title_prefix: str = "", diagnosis: str = "", dpi:
 
 
 def plot_scopes(result, out_dir, formats=FORMATS) -> list[Path]:
-    """Draw every scope of ``result`` and save it to ``out_dir`` as ``<name>.<format>``.
+    """Draw every scope of ``result`` and save it to ``out_dir`` as
+    ``<scenario>_<scope>.<format>`` (e.g. ``a7_id_mismatch_q_err.png``: the runs of several
+    scenarios can share a folder).
 
     Parameters
     ----------
@@ -311,7 +320,7 @@ def plot_scopes(result, out_dir, formats=FORMATS) -> list[Path]:
         _draw_scope(fig, axes, scope, prefix, diagnosis)
         _place_labels(fig, axes)
         for fmt in formats:
-            path = out_dir / f"{scope.name}.{fmt}"
+            path = out_dir / f"{file_stem(result)}_{scope.name}.{fmt}"
             fig.savefig(path, dpi=SCOPE_DPI, metadata={"Date": None} if fmt == "svg" else None)
             written.append(path)
     return written

@@ -1,0 +1,192 @@
+"""What the theory predicts for a closed loop, computed independently of the simulation.
+
+Each function solves the equation the theory gives — an equilibrium, a gain bound — from the
+model terms of ``armlab.dynamics`` alone, never from a run, so that a run can be checked against
+it (the report prints both side by side, :func:`predictions`).
+
+* Computed torque with a wrong model (A7, law C2) settles where, at rest (q̇ = 0, constant
+  q_des, y = K_P q̃),
+
+      B̂(q) K_P q̃ + n̂(q, 0) = g(q),   q = q_des − q̃                                        (T1)
+
+  with n̂(q, 0) = ĝ(q) the controller's gravity (from its ``bias_model`` when it has one).
+* PD + g(q_des) (A6 option 3, law C1) is globally asymptotically stable when
+  λ_min(K_P) > α,  α ≥ ‖∂g/∂q‖ over the joint space (Tomei 1991; Siciliano et al. §8.5.2):
+  :func:`gravity_gradient_bound` estimates α on a grid of the joint box.                   (T2)
+* Compliance control against a spring (A11, law C11, E2) settles at
+  x_e = (K_P + K)⁻¹(K_P x_d + K x_r), both stiffnesses in Σ_0's axes (K_P acts in Σ_d's or
+  Σ_0's, K in Σ_r's), and presses with f = K (x_e − x_r)                                   (T3)
+* Force control with integral action (A14, A15) reaches f_e = f_d along Image(K): a zero final
+  force error.                                                                             (T4)
+* Impedance control (A12, law C12) with an exact model imposes, on the position task in Σ_d,
+  M_d x̃̈ + K_D x̃̇ + K_P x̃ = h_A, h_A = R_dᵀ f_e: the residual of that equation along a run
+  is zero (measured by finite differences of the logged x̃, so O(dt²)).                    (T5)
+"""
+
+from __future__ import annotations
+
+import itertools
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.optimize import root
+
+from armlab.control.gains import gain_matrix
+from armlab.dynamics import gravity_torque, inertia_matrix
+from armlab.model.robot import Robot
+
+
+def computed_torque_equilibrium(plant: Robot, controller, q_des) -> np.ndarray:
+    """q̃ = q_des − q at the rest equilibrium (T1) of ``plant`` under a
+    :class:`~armlab.control.joint_space.JointInverseDynamics` ``controller``."""
+    q_des = np.asarray(q_des, dtype=float)
+    model = controller.model
+    bias = controller.bias_model if controller.bias_model is not None else model
+    kp = np.asarray(controller.kp, dtype=float)
+
+    def residual(e):
+        q = q_des - e
+        return inertia_matrix(model, q) @ (kp @ e) + gravity_torque(bias, q) - gravity_torque(plant, q)
+
+    solution = root(residual, np.zeros_like(q_des), tol=1e-14)
+    if not solution.success or np.abs(residual(solution.x)).max() > 1e-9:
+        raise ArithmeticError(f"no rest equilibrium found near q_des ({solution.message})")
+    return solution.x
+
+
+def gravity_gradient_bound(robot: Robot, points_per_joint: int = 9, step: float = 1e-6,
+                           samples: int = 4000, seed: int = 0) -> float:
+    """α of (T2): the largest spectral norm of ∂g/∂q (central differences) over the joint box
+    (the limits, ±π for an unlimited revolute joint, ±0.5 m for an unlimited prismatic one):
+    on a grid of ``points_per_joint`` values per joint when that has at most ``samples``
+    points, else at ``samples`` seeded random points.  A sampled maximum: a lower estimate of
+    the supremum, exact when it lies on a sample."""
+    unlimited = np.array([np.pi if j.kind == "revolute" else 0.5 for j in robot.joints])
+    lo = np.where(np.isfinite(robot.arrays.q_min), robot.arrays.q_min, -unlimited)
+    hi = np.where(np.isfinite(robot.arrays.q_max), robot.arrays.q_max, unlimited)
+    if points_per_joint ** robot.n <= samples:
+        axes = [np.linspace(a, b, points_per_joint) for a, b in zip(lo, hi, strict=True)]
+        points = np.array(list(itertools.product(*axes)))
+    else:
+        points = lo + np.random.default_rng(seed).random((samples, robot.n)) * (hi - lo)
+    worst = 0.0
+    for q in points:
+        columns = []
+        for j in range(robot.n):
+            dq = np.zeros(robot.n)
+            dq[j] = step
+            columns.append((gravity_torque(robot, q + dq) - gravity_torque(robot, q - dq)) / (2 * step))
+        worst = max(worst, float(np.linalg.norm(np.column_stack(columns), 2)))
+    return worst
+
+
+def compliance_equilibrium(kp, stiffness, x_d, x_r):
+    """(x_e, f) of (T3) with K_P and K (3, 3) in one frame's axes (or their diagonals):
+    x_e = (K_P + K)⁻¹(K_P x_d + K x_r), f = K (x_e − x_r)."""
+    kp, stiffness = (np.diag(v) if np.ndim(v) == 1 else np.asarray(v, dtype=float)
+                     for v in (np.asarray(kp, dtype=float), np.asarray(stiffness, dtype=float)))
+    x_d, x_r = np.asarray(x_d, dtype=float), np.asarray(x_r, dtype=float)
+    x_e = np.linalg.solve(kp + stiffness, kp @ x_d + stiffness @ x_r)
+    return x_e, stiffness @ (x_e - x_r)
+
+
+@dataclass(frozen=True)
+class Prediction:
+    """What the theory says of one quantity, and how to read the same quantity off a run:
+    ``measured(result)`` gives the run's values (a window mean at the end, unless said)."""
+
+    quantity: str
+    labels: tuple[str, ...]
+    values: np.ndarray
+    units: tuple[str, ...]
+    measured: Callable | None = None
+
+
+@dataclass(frozen=True)
+class _FinalMean:
+    """A run's ``signal`` (its ``columns``) averaged over the last 5 % (``armlab.metrics``).
+    A class, not a closure: predictions travel to the report's worker processes."""
+
+    signal: str
+    columns: tuple[int, ...] | None = None
+
+    def __call__(self, result):
+        from armlab.metrics import tail_slice
+
+        data = result.signals[self.signal]
+        data = data if self.columns is None else data[:, list(self.columns)]
+        return np.mean(data[tail_slice(result.t)], axis=0)
+
+
+@dataclass(frozen=True)
+class _ImpedanceRMS:
+    """The RMS over a run of the residual of (T5) for ``controller``."""
+
+    controller: object
+
+    def __call__(self, result):
+        # The first and last two samples carry one-sided differences.
+        return np.sqrt(np.mean(impedance_residual(result, self.controller)[2:-2] ** 2, axis=0))
+
+
+def impedance_residual(result, controller) -> np.ndarray:
+    """(N, 3) residual of (T5) along ``result`` of an impedance ``controller`` with a constant
+    pose reference: M_d x̃̈ + K_D x̃̇ + K_P x̃ − R_dᵀ f_e, x̃̇ and x̃̈ by central differences."""
+    t, e = result.t, result.signals["x_err"][:, :3]
+    e_dot = np.gradient(e, t, axis=0)
+    e_ddot = np.gradient(e_dot, t, axis=0)
+    h_A = result.signals["h_e"][:, :3] @ controller.reference.rotations[-1]
+    diag = [np.diag(np.atleast_2d(np.asarray(g, dtype=float))) if np.ndim(g) == 2
+            else np.broadcast_to(np.asarray(g, dtype=float), (3,))
+            for g in (controller.mass, controller.kd, controller.kp)]
+    return diag[0] * e_ddot + diag[1] * e_dot + diag[2] * e - h_A
+
+
+def predictions(scenario) -> list[Prediction]:
+    """The predictions of the module docstring that ``scenario`` (an
+    :class:`~armlab.scenarios.Scenario`) has a theory for; empty when none applies."""
+    from armlab.control.interaction import (
+        ComplianceControl,
+        ForceControl,
+        ImpedanceControl,
+        ParallelForcePosition,
+    )
+    from armlab.control.joint_space import JointInverseDynamics
+    from armlab.simulation.environment import Spring
+
+    controller, plant = scenario.controller, scenario.plant
+    t_final = float(scenario.simulation.get("t_final", 0.0))
+    if isinstance(controller, JointInverseDynamics):
+        q_des, qd_des, _ = controller.reference.evaluate(t_final)
+        if np.any(np.asarray(qd_des) != 0.0):
+            return []
+        e = computed_torque_equilibrium(plant, controller, q_des)
+        labels = tuple(j.name for j in plant.joints)
+        units = tuple("m" if j.kind == "prismatic" else "rad" for j in plant.joints)
+        return [Prediction("equilibrium q̃ (T1)", labels, e, units, _FinalMean("q_err"))]
+    if isinstance(controller, ComplianceControl) and isinstance(scenario.environment, Spring):
+        env, ref = scenario.environment, controller.reference
+        K = np.asarray(env.stiffness, dtype=float)
+        K = np.diag(K) if K.ndim == 1 else K
+        task = tuple(controller.task)
+        if np.any(K[:3, 3:]) or np.any(K[3:, :3]) or not {0, 1, 2} <= set(task):
+            return []  # (T3) needs the translation decoupled from the rotation, all of it controlled
+        R_d, p_d = ref.rotations[-1], ref.positions[-1]
+        kp = gain_matrix(controller.kp, 6, "kp", components=task)[:3, :3]
+        # Both stiffnesses in Σ_0's axes: K_P acts in Σ_d's ("desired") or Σ_0's ("base").
+        R_kp = R_d if controller.frame == "desired" else np.eye(3)
+        R_r = np.asarray(env.rest_rotation, dtype=float)
+        kp0, k0 = R_kp @ kp @ R_kp.T, R_r @ K[:3, :3] @ R_r.T
+        x_e, f = compliance_equilibrium(kp0, k0, p_d, env.rest_position)
+        return [Prediction("equilibrium p_e (T3)", ("x", "y", "z"), x_e, ("m",) * 3, _FinalMean("p")),
+                Prediction("equilibrium contact force f_e (T3)", ("fx", "fy", "fz"), f, ("N",) * 3,
+                           _FinalMean("h_e", (0, 1, 2)))]
+    if isinstance(controller, (ForceControl, ParallelForcePosition)) and np.any(np.asarray(controller.ki)):
+        return [Prediction("final force error f_d − f_e along Image(K) (T4)", ("x", "y", "z"), np.zeros(3),
+                           ("N",) * 3)]
+    if (isinstance(controller, ImpedanceControl) and len(controller.reference.times) == 1
+            and tuple(controller.task) == (0, 1, 2) and controller.frame == "desired"):
+        return [Prediction("impedance residual M_d x̃̈ + K_D x̃̇ + K_P x̃ − h_A (T5), RMS", ("x", "y", "z"),
+                           np.zeros(3), ("N",) * 3, _ImpedanceRMS(controller))]
+    return []

@@ -1,0 +1,98 @@
+"""Declared joint limits in the simulator: warned about, logged, flagged in the result, and —
+with ``joint_limits="stop"`` — enforced by stiff damped unilateral springs (S4)."""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pytest
+
+import armlab
+from armlab.control.joint_space import JointPDGravity
+from armlab.errors import ScenarioFileError
+from armlab.references.joint import Constant
+from armlab.scenarios import load_scenario
+from armlab.simulation import SimulationError, simulate
+from armlab.simulation.joint_limits import STOP_FREQUENCY_STEPS, JointLimitWarning
+
+PRP = armlab.load_robot("prp")
+DT = 1e-3
+
+
+def _run(mode, method="rk4", t_final=2.0):
+    """PD + g driving d1 to 0.5 m, beyond its upper limit 0.35 m."""
+    controller = JointPDGravity(model=PRP, reference=Constant(value=[0.5, 0.3, 0.1]),
+                                kp=[400, 50, 100], kd=[80, 10, 20])
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        result = simulate(PRP, controller, q0=[0.0, 0.3, 0.1], t_final=t_final, dt=DT,
+                          joint_limits=mode, method=method)
+    return result, [w for w in caught if issubclass(w.category, JointLimitWarning)]
+
+
+def test_crossing_a_limit_warns_with_joint_and_time():
+    result, caught = _run("warn")
+    assert len(caught) == 1
+    message = str(caught[0].message)
+    first = result.t[np.argmax(result.q[:, 0] > 0.35)]
+    assert message.startswith(f"joint d1 of prp left its limits [-0.15, 0.35] m at t = {first:.4g} s")
+    assert result.q[-1, 0] == pytest.approx(0.5, abs=1e-4)  # nothing stops it
+    np.testing.assert_array_equal(result.signals["q_limit_excess"][:, 0],
+                                  np.maximum(result.q[:, 0] - 0.35, 0.0))
+    assert not result.signals["q_limit_excess"][:, 1:].any()
+    crossed = result.meta["joint_limits"]["crossed"]
+    assert list(crossed) == ["d1"] and crossed["d1"]["first"] == first
+    assert crossed["d1"]["worst"] == pytest.approx(result.q[:, 0].max() - 0.35)
+
+
+def test_ignore_says_nothing():
+    result, caught = _run("ignore")
+    assert not caught and result.meta["joint_limits"] == {"mode": "ignore"}
+    assert "q_limit_excess" not in result.signals
+
+
+@pytest.mark.parametrize("method", ["rk4", "adaptive"])
+def test_stop_holds_the_joint_at_its_limit(method):
+    result, caught = _run("stop", method=method, t_final=1.5)
+    assert len(caught) == 1 and "met its stop at 0.35 m" in str(caught[0].message)
+    record = result.meta["joint_limits"]
+    K, D = record["stop_stiffness"][0], record["stop_damping"][0]
+    omega = STOP_FREQUENCY_STEPS / DT
+    # (S4): K = m ω², D = 2 m ω with m = 1/(B⁻¹(q0))_11.
+    m = 1.0 / np.linalg.inv(armlab.inertia_matrix(PRP, [0.0, 0.3, 0.1]))[0, 0]
+    assert K == pytest.approx(m * omega ** 2, rel=1e-12) and D == pytest.approx(2 * m * omega, rel=1e-12)
+    # At rest on the stop the joint's balance is τ_1 − g_1(q) + τ_stop = 0 with τ_stop = −K δ:
+    # the final penetration is δ = (τ_1 − g_1) / K.
+    q_end = result.q[-1]
+    push = result.tau[-1, 0] - armlab.gravity_torque(PRP, q_end)[0]
+    assert q_end[0] - 0.35 == pytest.approx(push / K, rel=1e-3)
+    assert result.signals["tau_dist"][-1, 0] == pytest.approx(-push, rel=1e-3)
+    # Any time: a critically damped contact entered at speed v overshoots by at most
+    # v / (e ω) beyond the static penetration of the largest push.
+    pushes = np.abs(result.tau[:, 0] - np.array([armlab.gravity_torque(PRP, q)[0] for q in result.q]))
+    bound = pushes.max() / K + np.abs(result.qd[:, 0]).max() / (np.e * omega)
+    assert 0 < result.q[:, 0].max() - 0.35 <= bound
+    assert bound < 5e-3  # millimetres, where the free run went 150 mm past
+
+
+def test_joint_limits_setting_is_checked(tmp_path):
+    with pytest.raises(SimulationError, match="joint_limits: 'halt' is not one of 'ignore', 'warn', 'stop'"):
+        _run("halt")
+    path = tmp_path / "bad.toml"
+    text = load_scenario("a6_pd_online").source
+    path.write_text(open(text, encoding="utf-8").read().replace(
+        "dt = 0.001", 'dt = 0.001\njoint_limits = "halt"'))
+    with pytest.raises(ScenarioFileError, match="simulation.joint_limits: 'halt' is not one of"):
+        load_scenario(path).run(t_final=0.01)
+
+
+def test_seed_scenario_that_leaves_the_limits_says_so_and_its_stop_variant_stays():
+    seed = load_scenario("a6_pd_sine_disturbance")
+    assert "beyond" in seed.description and "a6_pd_sine_disturbance_stop" in seed.description
+    with pytest.warns(JointLimitWarning, match="joint d3 of prp left its limits"):
+        free = seed.run()
+    assert free.q[:, 2].min() < -0.3
+    with pytest.warns(JointLimitWarning, match="joint d3 of prp met its stop at -0.15 m"):
+        stopped = load_scenario("a6_pd_sine_disturbance_stop").run()
+    assert -0.15 - 1e-3 < stopped.q[:, 2].min() < -0.15

@@ -1,0 +1,67 @@
+"""The seed's experiments as the seed ran them, beside armlab's improved ones.
+
+Each test checks the behaviour the scenario's description claims, against numbers derived
+independently (geometry, the theory of the law) rather than copied from a run.
+"""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+
+from armlab.scenarios import load_scenario
+
+
+def test_a15_wall_only_pushes_and_reaches_the_desired_force():
+    wall = load_scenario("a15_parallel_contact_wall").run()
+    f_y = wall.signals["h_e"][:, 1]
+    assert f_y.max() <= 0.0                               # a wall never pulls
+    assert abs(f_y[-1] + 0.5) < 1e-6                      # f_d = −0.5 N by the integral action
+    np.testing.assert_allclose(wall.signals["p"][-1, [0, 2]], [0.0, 0.4], atol=1e-9)  # x, z = x_d
+    # The seed's bilateral spring pulls (the reason for the wall).
+    spring = load_scenario("a15_parallel_contact").run(t_final=2.0)
+    assert spring.signals["h_e"][:, 1].max() > 50.0
+
+
+def test_a9_goal_that_turns_theta2():
+    result = load_scenario("a09_pd_goal_rotation").run()
+    error = result.signals["x_err"]
+    assert abs(error[0, 3]) > 0.7                         # φ starts π/4 away
+    assert np.abs(error[-1]).max() < 1e-6
+    np.testing.assert_allclose(result.q[-1], [0.0, np.pi / 4, 0.05], atol=1e-6)
+
+
+def test_a10_random_goals_fail_near_the_singular_axis():
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        result = load_scenario("a10_id_random_goals").run()
+    t, error = result.t, np.abs(result.signals["x_err"][:, :3]).max(axis=1)
+    sigma = result.signals["jacobian_sv"].min(axis=1)
+    crossing = (t > 14.0) & (t < 17.0)
+    assert sigma[crossing].min() < 2e-3                   # the path passes by the axis
+    assert error[crossing].max() > 0.01                   # saturated: tracking fails there
+    assert error[(t > 5.0) & (t < 12.0)].max() < 1e-6     # and nowhere else
+    assert error[-1] < 1e-6                               # goal 2 is reached
+
+
+def test_a8_literal_seed_plant_diverges_and_faster_gains_converge():
+    literal = load_scenario("a8_case1_wrong_plant1_seed_form").run(on_divergence="return")
+    assert literal.status == "diverged" and 1.5 < literal.t[-1] < 2.5
+    faster = load_scenario("a8_case2_square_faster").run()
+    t, e = faster.t, np.abs(faster.signals["q_err"][:, 0])
+    assert e[t >= 45.0].max() < 0.15 * e[t < 5.0].max()
+
+
+def test_saturation_overshoot_needs_a_long_saturation():
+    """Clipping at ±20 N delays joint 1 at ω_n = 30 rad/s but makes it overshoot at 60 rad/s;
+    unsaturated, the critically damped design never overshoots."""
+    from armlab.metrics import overshoot
+
+    def joint1_overshoot(name):
+        result = load_scenario(name).run()
+        return overshoot(result.t, result.signals["q_err"][:, 0])
+
+    assert joint1_overshoot("a7_id_high_gain") == joint1_overshoot("a7_id_higher_gain") == 0.0
+    assert joint1_overshoot("a7_id_high_gain_saturated") == 0.0
+    assert joint1_overshoot("a7_id_higher_gain_saturated") > 10.0
