@@ -304,6 +304,11 @@ PREPARE_TIMEOUT = 600.0  # [s] a worker waits this long at most for the other's 
 def _init_worker(events) -> None:
     global _PREPARED
     _PREPARED = tuple(events)
+    # The report's own worker processes draw into files only: the file backend, whatever the
+    # user's default (the library never chooses one for the user's process).
+    import matplotlib
+
+    matplotlib.use("Agg")
 
 
 def _prepare(half: str, robots: list[Robot], index: int) -> None:
