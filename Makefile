@@ -10,7 +10,7 @@ RUN_STAMP := $(VENV)/.installed-run-$(HASH)
 TEST_STAMP := $(VENV)/.installed-test-$(HASH)
 BENCH_STAMP := $(VENV)/.installed-bench-$(HASH)
 
-.PHONY: demo test bench lint clean
+.PHONY: demo test bench lint clean docs
 
 # The venv's own pip (>= 21.3) installs this project; upgrading it first cost seconds for nothing.
 # --no-compile: modules are byte-compiled when first imported instead of all at install (most
@@ -52,3 +52,8 @@ lint: $(TEST_STAMP)
 
 clean:
 	rm -rf $(VENV) build src/*.egg-info .pytest_cache
+
+# The documentation site (Sphinx: docs/*.md and the API reference), warnings as errors.
+docs: $(TEST_STAMP)
+	$(BIN)/python -m pip install --quiet --disable-pip-version-check -e ".[docs]"
+	$(BIN)/python -m sphinx -W --keep-going -b html docs docs/_build/html

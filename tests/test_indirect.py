@@ -109,7 +109,7 @@ def test_the_log_columns_cover_what_a_row_writes(flags, extra):
     assert all(a.stop == b.start for a, b in zip(list(columns.values()), list(columns.values())[1:]))
 
 
-def test_a_law_that_is_not_compiled_is_refused_by_name():
+def test_a_law_that_is_not_compiled_runs_in_python_and_a_non_function_is_refused_by_name():
     from dataclasses import dataclass
 
     from armlab.control.base import Controller, ProtocolError, Signal
@@ -130,8 +130,15 @@ def test_a_law_that_is_not_compiled_is_refused_by_name():
             return (Signal.joint("none", self.model, "position"),)
 
     robot = armlab.load_robot("prp")
-    with pytest.raises(ProtocolError, match="Plain.law: .* is not a numba.njit function"):
-        simulate(robot, Plain(robot), q0=np.zeros(3), t_final=0.01, dt=1e-3)
+    # A plain-Python law runs in the Python loop (armlab.simulation.python_loop).
+    result = simulate(robot, Plain(robot), q0=np.zeros(3), t_final=0.01, dt=1e-3)
+    assert result.meta["law"] == "python" and np.all(result.tau == 0.0)
+
+    class NotALaw(Plain):
+        law = 3
+
+    with pytest.raises(ProtocolError, match="NotALaw.law: 3 is not a function"):
+        simulate(robot, NotALaw(robot), q0=np.zeros(3), t_final=0.01, dt=1e-3)
 
 
 @njit(cache=False)

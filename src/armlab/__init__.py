@@ -19,6 +19,7 @@ __version__ = "0.1.0"
 _HOMES = {
     "armlab.control.interaction": ("AdmittanceControl", "ComplianceControl", "ForceControl",
                                    "ImpedanceControl", "ParallelForcePosition"),
+    "armlab.control.function": ("FunctionController",),
     "armlab.control.task_space": ("OperationalInverseDynamics", "OperationalPD"),
     "armlab.dynamics": ("DynamicsData", "coriolis_matrix", "forward_dynamics", "gravity_torque",
                         "inertia_matrix", "inverse_dynamics", "kinetic_energy", "potential_energy"),

@@ -66,6 +66,9 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     """Run ``armlab`` with ``argv`` (``sys.argv[1:]`` by default); returns the exit code
     (:data:`EXIT_CODES`)."""
+    # The command line only writes pictures to files: matplotlib's file backend, whatever the
+    # user's default (the library never chooses one).  Read when matplotlib is first imported.
+    os.environ["MPLBACKEND"] = "Agg"
     parser = build_parser()
     args = parser.parse_args(argv)
     if getattr(args, "func", None) is None:

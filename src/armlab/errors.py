@@ -175,7 +175,8 @@ class AnimationError(InputError):
 
 class ProtocolError(ArmlabError, TypeError):
     """A controller, environment or law that does not follow the protocol of
-    :mod:`armlab.control.base` (a law that is not a numba.njit function, an object of the wrong
+    :mod:`armlab.control.base` (a law with the wrong arguments, params that are not a tuple, a
+    compiled law that does not compile, an environment law that is not compiled, an object of the wrong
     kind where a reference or controller is expected)."""
 
 

@@ -27,7 +27,9 @@ Two regressors:
   I_zz] (I the inertia tensor about J_i's origin, tensor entries: I_xy = −∫xy dm), and the
   viscous coefficient F_v,i.  Y is built numerically from the RNEA, which is linear in π: with
   T(a, b, s) = RNEA(q, q̇ = a, q̈ = b, gravity × s) (no friction),
+
       ¼[T(q̇ + q̇_r, 2q̈_r, 2) − T(q̇ − q̇_r, −2q̈_r, −2)] = B q̈_r + C(q, q̇) q̇_r + g          (C8)
+
   by polarisation of the quadratic velocity term, and column k of Y is (C8) for a robot whose
   link i has parameters π₀ + e_k minus the same for π₀ (exact: (C8) is linear in π).
   Motor rotor inertia and Coulomb friction are not estimated (the model must not have them).

@@ -26,19 +26,23 @@ the signature
 
     law(t, q, qd, z, h_e, params, tau_out, zdot_out, signals_out) -> None
 
-=============  ========  ==================================================================
-argument       shape     meaning
-=============  ========  ==================================================================
-``t``          float     time [s]
-``q, qd``      (n,)      measured joint positions / velocities [m | rad], [m/s | rad/s]
-``z``          (k,)      controller state (read only)
-``h_e``        (6,)      measured end-effector wrench [f; μ] in Σ_0 [N, N·m] that the
-                         end effector exerts on the environment (zeros in free space)
-``params``     —         ``Controller.params()``, a NamedTuple of plain arrays (see below)
-``tau_out``    (n,)      write the commanded joint torque/force τ [N·m | N]
-``zdot_out``   (k,)      write ż (k may be 0)
-``signals_out``(s,)      write the logged signals, concatenated in ``signals()`` order
-=============  ========  ==================================================================
+(A law in plain Python runs too, about 60 times slower: ``armlab.simulate`` then integrates
+in Python, ``armlab.simulation.python_loop``; ``armlab.control.function.FunctionController``
+takes a law given as a function, also the short form ``tau = law(t, q, qd)``.)
+
+===============  ========  ==================================================================
+argument         shape     meaning
+===============  ========  ==================================================================
+``t``            float     time [s]
+``q, qd``        (n,)      measured joint positions / velocities [m | rad], [m/s | rad/s]
+``z``            (k,)      controller state (read only)
+``h_e``          (6,)      measured end-effector wrench [f; μ] in Σ_0 [N, N·m] that the
+                           end effector exerts on the environment (zeros in free space)
+``params``       —         ``Controller.params()``, a NamedTuple of plain arrays (see below)
+``tau_out``      (n,)      write the commanded joint torque/force τ [N·m | N]
+``zdot_out``     (k,)      write ż (k may be 0)
+``signals_out``  (s,)      write the logged signals, concatenated in ``signals()`` order
+===============  ========  ==================================================================
 
 The law must not allocate: every temporary lives in an array of ``params`` (for example a
 workspace from ``armlab.kernels.dynamics.make_workspace``).  It must write every entry of its
@@ -205,6 +209,11 @@ class Controller(abc.ABC):
     def params(self) -> tuple:
         """The NamedTuple of plain arrays passed to ``law`` as ``params`` (module docstring)."""
 
+    def law_function(self):
+        """The law the simulator runs: the class's ``law`` (a controller holding its law as a
+        field, ``armlab.control.function.FunctionController``, returns that one)."""
+        return type(self).law
+
     def initial_state(self) -> np.ndarray:
         """z(0), (k,); stateless controllers have k = 0."""
         return np.zeros(0)
@@ -220,6 +229,12 @@ class Controller(abc.ABC):
     def signals(self) -> tuple[Signal, ...]:
         """The logged signals written into ``signals_out``, in order."""
         return ()
+
+    def _repr_html_(self) -> str:
+        """The controller in a notebook: its law, gains, model and signals."""
+        from armlab.display import controller_html
+
+        return controller_html(self)
 
     def describe(self) -> dict:
         """Plain, JSON-able description of the controller (stored in ``SimulationResult.meta``)."""

@@ -253,6 +253,17 @@ class Robot:
     def __eq__(self, other):
         return self is other
 
+    def __repr__(self) -> str:
+        kinds = "".join("P" if j.kind == "prismatic" else "R" for j in self.joints)
+        where = f", source={self.source!r}" if self.source else ""
+        return f"Robot({self.name!r}, {self.n} joints {kinds}{where})"
+
+    def _repr_html_(self) -> str:
+        """The robot in a notebook: its joint table, links, parameters, provenance."""
+        from armlab.display import robot_html
+
+        return robot_html(self)
+
     @property
     def n(self) -> int:
         """Number of joints (degrees of freedom)."""

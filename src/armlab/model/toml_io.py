@@ -119,7 +119,7 @@ def _power(base: float, exponent: float) -> float:
 
 
 def evaluate_expression(text: str, names: dict[str, float]) -> float:
-    """Value of an arithmetic expression over ``names`` (+ − * / **, sqrt/sin/cos/tan, pi).
+    """Value of an arithmetic expression over ``names`` (``+ − * / **``, sqrt/sin/cos/tan, pi).
 
     Only these operations are accepted (see :func:`expression_tree`): the robot file is data,
     never code.  Raises ``ValueError`` saying what is wrong (also for a division by zero or an

@@ -17,6 +17,9 @@ Kinds (notation table, C-tags of ``docs/notation.md``):
   second; q̇_des(0) = −A P/4 so the velocity is a zero-mean triangle wave and
   q_des = q_c − A P τ/4 + A τ²/2 (τ = t mod P < P/2), a periodic wave of amplitude A P²/32
   about q_c (seed A8 case 2)                                                               (R5)
+* piecewise polynomials (``armlab.references.trajectories``: trapezoidal velocity profiles,
+  linear segments with parabolic blends, cubic and quintic splines): on [t_j, t_{j+1})
+  q_des = Σ_k c_jk (t − t_j)^k, k ≤ 5, held at its first and last value outside the breaks (R8)
 """
 
 from __future__ import annotations
@@ -30,7 +33,8 @@ from numba import njit
 from armlab.errors import ReferenceSpecError
 from armlab.registry import scenario_type
 
-CONSTANT, VIA_POINTS, SINUSOID, RAMP, SQUARE_ACCEL = 0, 1, 2, 3, 4
+CONSTANT, VIA_POINTS, SINUSOID, RAMP, SQUARE_ACCEL, PIECEWISE = 0, 1, 2, 3, 4, 5
+PIECEWISE_ORDER = 6  # coefficients per piece and joint: degree ≤ 5
 
 
 # Inlined into the law that evaluates the reference (four times a step): there the reference
@@ -103,6 +107,34 @@ def reference_into(ref, t, q_des, qd_des, qdd_des):
             else:
                 q_des[i], qd_des[i] = start + slope * elapsed, slope
             qdd_des[i] = 0.0
+    elif kind == PIECEWISE:
+        # ref = [kind, n, m, breaks (m + 1), coefficients (m × n × 6, ascending powers)].
+        m = int(ref[2])
+        first_break, last_break = ref[3], ref[3 + m]
+        if t <= first_break:
+            j, tau, hold = 0, 0.0, True
+        elif t >= last_break:
+            j, tau, hold = m - 1, last_break - ref[2 + m], True
+        else:
+            lo, hi = 0, m - 1                 # bisection: a spline may have many pieces
+            while lo < hi:
+                mid = (lo + hi + 1) // 2
+                if ref[3 + mid] <= t:
+                    lo = mid
+                else:
+                    hi = mid - 1
+            j, tau, hold = lo, t - ref[3 + lo], False
+        base = 4 + m + j * n * PIECEWISE_ORDER
+        for i in range(n):
+            c = base + i * PIECEWISE_ORDER
+            value, rate, curvature = 0.0, 0.0, 0.0
+            for k in range(PIECEWISE_ORDER - 1, -1, -1):   # Horner, with the two derivatives
+                curvature = curvature * tau + 2.0 * rate
+                rate = rate * tau + value
+                value = value * tau + ref[c + k]
+            q_des[i] = value
+            qd_des[i] = 0.0 if hold else rate
+            qdd_des[i] = 0.0 if hold else curvature
     else:
         for i in range(n):
             center, amp, period = ref[2 + i], ref[2 + n + i], ref[2 + 2 * n + i]

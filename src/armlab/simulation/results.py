@@ -76,6 +76,17 @@ class SimulationResult:
     status: str = "ok"
     diagnosis: str = ""
 
+    def __repr__(self) -> str:
+        span = f", t = {self.t[0]:.6g} … {self.t[-1]:.6g} s" if len(self) else ""
+        return (f"SimulationResult({len(self)} samples{span}, {self.n} joints, status={self.status!r}, "
+                f"signals={list(self.signals)})")
+
+    def _repr_html_(self) -> str:
+        """The result in a notebook: a summary and its first scope as an inline PNG."""
+        from armlab.viz.notebook import result_html
+
+        return result_html(self)
+
     @property
     def n(self) -> int:
         return self.q.shape[1]

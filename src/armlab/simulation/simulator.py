@@ -51,13 +51,15 @@ import os
 import time
 
 import numpy as np
+from numba.core.errors import TypingError
 
 from armlab.caches import repaired
 from armlab.control.base import Controller, Environment, ProtocolError, Signal
+from armlab.control.function import arity, check_params, compile_problem, is_compiled
 from armlab.dynamics import packed_copy
 from armlab.errors import SimulationDiverged, SimulationError, SimulationInterrupted
 from armlab.kernels.environment import FreeSpaceParams, free_space_law
-from armlab.simulation import loop
+from armlab.simulation import loop, python_loop
 from armlab.simulation.disturbances import encode_disturbances
 from armlab.simulation.joint_limits import annotate, check_mode, joint_stop
 from armlab.simulation.results import SimulationResult
@@ -185,8 +187,14 @@ class _Setup:
         # Why the numeric kernels run where a generated module was on disk (a damaged or
         # disagreeing module): recorded in the result, never silent.
         self.fallback = closed_form_status(plant) if self.dynamics == "numeric" != dynamics else ""
-        self.law = _compiled(type(controller).law, f"{type(controller).__name__}.law")
-        entry = _own_entry(type(controller))
+        law = controller.law_function()
+        if arity(law, f"{type(controller).__name__}.law") != 9:
+            raise ProtocolError(f"{type(controller).__name__}.law: a controller class's law takes "
+                                "(t, q, qd, z, h_e, params, tau_out, zdot_out, signals_out)")
+        # A law in plain Python runs in armlab.simulation.python_loop (same step, slower).
+        self.python_law = None if is_compiled(law) else law
+        self.law = None if self.python_law is not None else _compiled(law, f"{type(controller).__name__}.law")
+        entry = _own_entry(type(controller)) if self.python_law is None else None
         self.entry = None if entry is None else _compiled(entry, f"{type(controller).__name__}.entry")
         self.env_law = _compiled(self.env_law, f"{type(environment).__name__}.law")
         self.rows = self.n_steps // self.log_every + 1
@@ -197,10 +205,17 @@ class _Setup:
     def workspace(self, cparams):
         """(fn, pp, work) of one run: the loop's addresses, the packed plant (its own copy:
         it holds scratch) and the loop's scratch memory."""
-        fn = loop.addresses(self.law, self.env_law, cparams, self.eparams,
-                                   self.forward_dynamics, self.kinetic_energy, self.entry,
-                                   has_env=self.environment is not None,
-                                   has_dist=bool(self.dist[0] > 0))
+        if self.python_law is not None:
+            raise ProtocolError(f"{type(self.controller).__name__}.law: a Python law runs with "
+                                "simulate; simulate_batch needs it compiled (numba.njit)")
+        check_params(cparams, f"{type(self.controller).__name__}.params()")
+        try:
+            fn = loop.addresses(self.law, self.env_law, cparams, self.eparams,
+                                self.forward_dynamics, self.kinetic_energy, self.entry,
+                                has_env=self.environment is not None,
+                                has_dist=bool(self.dist[0] > 0))
+        except TypingError as error:
+            raise ProtocolError(compile_problem(type(self.controller).__name__, error)) from None
         work = np.zeros(loop.work_size(self.n, self.k, self.sig_width))
         return fn, packed_copy(self.plant), work
 
@@ -391,12 +406,23 @@ def simulate(plant, controller, *, q0, qd0=None, t_final, dt, method="rk4", cont
     if max_steps is not None and (isinstance(max_steps, bool) or not (
             isinstance(max_steps, (int, np.integer)) and max_steps >= 1)):
         raise SimulationError(f"max_steps: must be a positive integer, got {max_steps!r}")
+    if setup.python_law is not None:
+        return _run_python(setup, controller.params(), meta, on_divergence, method, rtol, atol, integrator)
     if method == "rk4":
         return repaired(lambda: _run_rk4(setup, controller.params(), meta, on_divergence))
     if max_steps is None:
         max_steps = max(ADAPTIVE_MIN_STEPS, ADAPTIVE_STEPS_PER_SECOND * setup.n_steps * setup.dt)
     return repaired(lambda: _run_adaptive(setup, controller.params(), meta, on_divergence, rtol, atol,
                                           integrator, int(max_steps)))
+
+
+def _run_python(setup, cparams, meta, on_divergence, method, rtol, atol, integrator):
+    status, rows, step, joint, views, wall = python_loop.run(setup, setup.python_law, cparams,
+                                                             packed_copy(setup.plant), method,
+                                                             rtol=rtol, atol=atol, integrator=integrator)
+    meta = {**(meta or {}), "wall_time": wall, "law": "python"}
+    result = setup.result(views, rows, method, meta)
+    return _finish(setup, result, status, step, joint, on_divergence)
 
 
 def _run_rk4(setup, cparams, meta, on_divergence):

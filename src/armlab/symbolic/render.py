@@ -13,6 +13,7 @@ letter); minus signs are U+2212.
 from __future__ import annotations
 
 import html
+from typing import TYPE_CHECKING
 
 import sympy as sp
 from sympy.printing.conventions import split_super_sub
@@ -20,7 +21,8 @@ from sympy.printing.mathml import MathMLPresentationPrinter
 from sympy.printing.precedence import PRECEDENCE
 from sympy.printing.pretty.pretty_symbology import greek_unicode, pretty_symbol
 
-from armlab.symbolic.sections import Section
+if TYPE_CHECKING:  # a section displays itself with this module's printers
+    from armlab.symbolic.sections import Section
 
 FORMATS = ("text", "latex", "markdown")
 # Greek variants SymPy's Unicode table lacks (its LaTeX printer knows them: \\varphi, \\vartheta).

@@ -68,6 +68,20 @@ class Section:
         """[(label, expr), …]."""
         return [(item.label, item.expr) for item in self.items]
 
+    def _repr_html_(self) -> str:
+        """The section in a notebook: each item as presentation MathML (``armlab.display``)."""
+        from armlab.display import section_html
+        from armlab.symbolic.render import to_mathml
+
+        return section_html(self, to_mathml)
+
+    def _repr_latex_(self) -> str:
+        """The section as LaTeX display math, one aligned row per item."""
+        from armlab.symbolic.render import _equation
+
+        rows = r" \\ ".join("& " + _equation(item, False) for item in self.items)
+        return rf"$$\begin{{aligned}} {rows} \end{{aligned}}$$"
+
 
 def _T(i, j) -> tuple[str, str]:
     """Label of T_i^j (frame i seen from frame j) in Unicode and LaTeX."""

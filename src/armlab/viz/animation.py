@@ -10,19 +10,17 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import matplotlib
+import numpy as np
+from matplotlib import animation
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
+from PIL import Image
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-from matplotlib import animation  # noqa: E402
-from PIL import Image  # noqa: E402
-
-from armlab.errors import AnimationError  # noqa: E402
-from armlab.files import replacing  # noqa: E402
-from armlab.kinematics import link_frames  # noqa: E402
-from armlab.model.robot import Robot  # noqa: E402
-from armlab.viz.drawing import (  # noqa: E402
+from armlab.errors import AnimationError
+from armlab.files import replacing
+from armlab.kinematics import link_frames
+from armlab.model.robot import Robot
+from armlab.viz.drawing import (
     Plane,
     RobotArtist,
     frame_label,
@@ -112,7 +110,10 @@ def animate_robot(robot: Robot, t, q, path, *, frame: str = "base", plane: Plane
         # The surface as large as the end effector's path on it: it may slide along a wall.
         tip = np.array([link_frames(robot, q_frame, frame="0")[-1][:3, 3] for q_frame in qs])
         plane = plane_covering(plane, tip)
-    fig = plt.figure(figsize=(4.8, 4.6), dpi=dpi)
+    # A figure of its own on the Agg canvas, outside pyplot: frames are grabbed from Agg's
+    # pixel buffer whatever backend the user chose, and no window ever opens.
+    fig = Figure(figsize=(4.8, 4.6), dpi=dpi)
+    FigureCanvasAgg(fig)
     fig.subplots_adjust(left=0.0, right=0.96, bottom=0.02, top=0.9)
     ax = fig.add_subplot(projection="3d")
     ax.view_init(elev=view[0], azim=view[1])  # first: the frame labels are placed for the view
@@ -123,21 +124,18 @@ def animate_robot(robot: Robot, t, q, path, *, frame: str = "base", plane: Plane
     clock = fig.text(0.03, 0.03, "", fontsize=9, family="monospace")
 
     path.parent.mkdir(parents=True, exist_ok=True)
-    try:
-        with replacing(path) as temporary:  # atomic: complete or not at all
-            if suffix == ".gif":
-                frames = list(_frames(fig, ax, artist, clock, times, qs))
-                frames[0].save(temporary, format="GIF", save_all=True, append_images=frames[1:],
-                               duration=int(1000 / fps), loop=0)
-            else:
-                # Frames are grabbed by hand: FuncAnimation would render every frame twice.
-                with writer.saving(fig, str(temporary), dpi):
-                    for time, q_frame in zip(times, qs, strict=True):
-                        artist.update(q_frame)
-                        clock.set_text(_clock(time))
-                        writer.grab_frame()
-    finally:
-        plt.close(fig)
+    with replacing(path) as temporary:  # atomic: complete or not at all
+        if suffix == ".gif":
+            frames = list(_frames(fig, ax, artist, clock, times, qs))
+            frames[0].save(temporary, format="GIF", save_all=True, append_images=frames[1:],
+                           duration=int(1000 / fps), loop=0)
+        else:
+            # Frames are grabbed by hand: FuncAnimation would render every frame twice.
+            with writer.saving(fig, str(temporary), dpi):
+                for time, q_frame in zip(times, qs, strict=True):
+                    artist.update(q_frame)
+                    clock.set_text(_clock(time))
+                    writer.grab_frame()
     return path
 
 

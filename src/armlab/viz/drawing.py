@@ -17,18 +17,15 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import matplotlib
+import matplotlib.pyplot as plt
+import numpy as np
+from matplotlib.ticker import MaxNLocator
+from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-from matplotlib.ticker import MaxNLocator  # noqa: E402
-from mpl_toolkits.mplot3d.art3d import Poly3DCollection  # noqa: E402
-
-from armlab.kinematics import link_frames  # noqa: E402
-from armlab.model.robot import Robot  # noqa: E402
-from armlab.model.toml_io import evaluate_expression  # noqa: E402
-from armlab.spatial import inverse_transform, rpy_matrix  # noqa: E402
+from armlab.kinematics import link_frames
+from armlab.model.robot import Robot
+from armlab.model.toml_io import evaluate_expression
+from armlab.spatial import inverse_transform, rpy_matrix
 
 AXIS_COLOURS = ("#d62728", "#2ca02c", "#1f5fd6")  # x red, y green, z blue
 LINK_COLOURS = ("#f0a030", "#8fb8de", "#9ad28a", "#d9a3d6", "#e8d36a", "#a0d8d0", "#f4a6a6")

@@ -24,32 +24,29 @@ import warnings
 from dataclasses import replace
 from pathlib import Path
 
-import matplotlib
+import matplotlib.pyplot as plt
+import numpy as np
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-
-from armlab.errors import ArmlabError  # noqa: E402
-from armlab.files import write_text  # noqa: E402
-from armlab.model.robot import Robot  # noqa: E402
-from armlab.robots import load_robot  # noqa: E402
-from armlab.simulation.joint_limits import JointLimitWarning, describe_crossing  # noqa: E402
-from armlab.viz import html  # noqa: E402
-from armlab.viz.animation import animate_robot, joint_spans, motion_window  # noqa: E402
-from armlab.viz.comparisons import COMPARISONS, comparison_scope, impedance_scope  # noqa: E402
-from armlab.viz.drawing import draw_robot  # noqa: E402
-from armlab.viz.experiments import (  # noqa: E402, F401 — ReportError, assignment_number: public here too
+from armlab.errors import ArmlabError
+from armlab.files import write_text
+from armlab.model.robot import Robot
+from armlab.robots import load_robot
+from armlab.simulation.joint_limits import JointLimitWarning, describe_crossing
+from armlab.viz import html
+from armlab.viz.animation import animate_robot, joint_spans, motion_window
+from armlab.viz.comparisons import COMPARISONS, comparison_scope, impedance_scope
+from armlab.viz.drawing import draw_robot
+from armlab.viz.experiments import (  # noqa: F401 — ReportError, assignment_number: public here too
     Experiment,
     ReportError,
     assignment_number,
     discover,
     experiment_from_scenario,
 )
-from armlab.viz.metrics import Metric, measure  # noqa: E402
-from armlab.viz.notes import markdown_html, metric_definitions, seed_notes, source_name  # noqa: E402
-from armlab.viz.progress import Progress  # noqa: E402
-from armlab.viz.scopes import SCOPE_DPI, scope_layout, scope_png  # noqa: E402
+from armlab.viz.metrics import Metric, measure
+from armlab.viz.notes import markdown_html, metric_definitions, seed_notes, source_name
+from armlab.viz.progress import Progress
+from armlab.viz.scopes import SCOPE_DPI, scope_layout, scope_png
 
 ASSIGNMENTS = {
     1: "Kinematics: DH tables, direct and inverse kinematics, Jacobians",
@@ -306,6 +303,11 @@ PREPARE_TIMEOUT = 600.0  # [s] a worker waits this long at most for the other's 
 def _init_worker(events, parent: int) -> None:
     global _PREPARED
     _PREPARED = tuple(events)
+    # The report's own worker processes draw into files only: the file backend, whatever the
+    # user's default (the library never chooses one for the user's process).
+    import matplotlib
+
+    matplotlib.use("Agg")
     # A report killed outright (kill -9) cannot shut its pool down: each worker leaves by
     # itself once its parent is gone (it is then re-parented), instead of running on.
     threading.Thread(target=_leave_when_orphaned, args=(parent,), daemon=True).start()

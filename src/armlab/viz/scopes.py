@@ -16,19 +16,16 @@ import textwrap
 import threading
 from pathlib import Path
 
-import matplotlib
+import matplotlib.pyplot as plt
+import numpy as np
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
+from matplotlib.transforms import blended_transform_factory
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-from matplotlib.backends.backend_agg import FigureCanvasAgg  # noqa: E402
-from matplotlib.figure import Figure  # noqa: E402
-from matplotlib.transforms import blended_transform_factory  # noqa: E402
-
-from armlab.errors import ScopeError  # noqa: E402
-from armlab.files import replacing  # noqa: E402
-from armlab.viz.html import figure_png  # noqa: E402
-from armlab.viz.layout import (  # noqa: E402, F401  (also imported from here by callers)
+from armlab.errors import ScopeError
+from armlab.files import replacing
+from armlab.viz.html import figure_png
+from armlab.viz.layout import (  # noqa: F401  (also imported from here by callers)
     ACTUAL,
     COMMAND,
     DESIRED,
