@@ -74,7 +74,7 @@ _NODES = (ast.Expression, ast.Constant, ast.BinOp, ast.UnaryOp, ast.Name, ast.Ca
 def expression_tree(text) -> ast.Expression:
     """The syntax tree of an expression string, checked before anything is evaluated.
 
-    Only numbers, names, + − * / **, unary ±, and calls ``f(x)`` of a single argument are
+    Only numbers, names, ``+ − * / **``, unary ±, and calls ``f(x)`` of a single argument are
     allowed, at most :data:`MAX_EXPRESSION_LENGTH` characters and :data:`MAX_EXPRESSION_DEPTH`
     levels deep, so that walking the tree recursively is safe.  Raises ``ValueError`` saying
     what is wrong; both the numeric reader and ``armlab.symbolic`` read expressions through it.

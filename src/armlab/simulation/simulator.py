@@ -386,9 +386,11 @@ def simulate(plant, controller, *, q0, qd0=None, t_final, dt, method="rk4", cont
         (``armlab.simulation.joint_limits``).
     meta : extra JSON-able entries for ``result.meta`` (scenario name, …).
     max_steps : most solver steps of ``method="adaptive"`` (default: see the module); beyond
-        them the run stops with
-        ``status == "stopped"`` (raised as ``SimulationDiverged`` unless ``on_divergence="return"``).
+        them the run stops with ``status == "stopped"`` (raised as ``SimulationDiverged``
+        unless ``on_divergence="return"``).
 
+    Notes
+    -----
     A run of more than :data:`MAX_STEPS` steps or with a log above :data:`MAX_LOG_BYTES` is
     refused before it starts.  Ctrl-C raises ``SimulationInterrupted`` with ``.result``.
     """
