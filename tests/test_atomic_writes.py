@@ -171,3 +171,24 @@ def test_results_round_trip_with_every_status(tmp_path):
         result = synthetic_result(7, status=status)
         for suffix in FORMATS:
             assert_same(SimulationResult.load(result.save(tmp_path / f"r{suffix}")), result)
+
+
+def test_kill_9_during_armlab_report_keeps_the_previous_report_or_a_complete_new_one(tmp_path):
+    """The issue's case: a good report in place, a report killed while it is written must not
+    replace it by a partial or empty file."""
+    env = _env(tmp_path)
+    out = tmp_path / "report"
+    out.mkdir()
+    previous = "<!DOCTYPE html><html><body>the previous report</body></html>\n"
+    (out / "report.html").write_text(previous, encoding="utf-8")
+    rng = random.Random(7)
+    for _ in range(2):
+        process = _cli(["report", "--quick", "--quiet", "--no-animation", "--out", str(out)], env)
+        time.sleep(rng.uniform(2.0, 25.0))
+        process.send_signal(signal.SIGKILL)
+        process.wait(timeout=60)
+        text = (out / "report.html").read_text(encoding="utf-8")
+        assert text == previous or text.rstrip().endswith("</html>")
+        for path in out.rglob("*"):
+            if path.is_file() and not path.name.startswith(PREFIX):
+                assert path.stat().st_size > 0, path
