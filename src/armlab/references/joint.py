@@ -161,6 +161,21 @@ def _vector(value, n: int | None, field: str) -> np.ndarray:
     return array if n is None or array.shape[0] == n else np.full(n, array[0])
 
 
+def _times_and_values(times, values) -> tuple[np.ndarray, np.ndarray]:
+    """(times (m,), values (m, n)) of a reference through points: strictly increasing times,
+    at least two, one finite row of values per time."""
+    times = _vector(times, None, "times")
+    values = np.asarray(values, dtype=float)
+    if values.ndim != 2 or values.shape[0] != times.shape[0]:
+        raise ReferenceSpecError(f"values: expected shape ({times.shape[0]}, n) matching times, "
+                                 f"got {values.shape}")
+    if times.shape[0] < 2 or np.any(np.diff(times) <= 0):
+        raise ReferenceSpecError("times: need at least two strictly increasing times")
+    if not np.all(np.isfinite(values)):
+        raise ReferenceSpecError("values: values must be finite")
+    return times, values
+
+
 class JointReference:
     """Base of the references: ``data`` for the compiled kernel, ``n``, ``evaluate``."""
 
@@ -213,15 +228,7 @@ class ViaPoints(JointReference):
     values: np.ndarray
 
     def _data(self):
-        times = _vector(self.times, None, "times")
-        values = np.asarray(self.values, dtype=float)
-        if values.ndim != 2 or values.shape[0] != times.shape[0]:
-            raise ReferenceSpecError(f"values: expected shape ({times.shape[0]}, n) matching times, "
-                                     f"got {values.shape}")
-        if times.shape[0] < 2 or np.any(np.diff(times) <= 0):
-            raise ReferenceSpecError("times: need at least two strictly increasing times")
-        if not np.all(np.isfinite(values)):
-            raise ReferenceSpecError("values: values must be finite")
+        times, values = _times_and_values(self.times, self.values)
         return np.concatenate([[VIA_POINTS, values.shape[1], times.shape[0]], times, values.ravel()])
 
 

@@ -30,7 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from armlab.errors import ReferenceSpecError
-from armlab.references.joint import PIECEWISE, PIECEWISE_ORDER, JointReference, _vector
+from armlab.references.joint import PIECEWISE, PIECEWISE_ORDER, JointReference, _times_and_values, _vector
 from armlab.registry import scenario_type
 
 
@@ -43,19 +43,6 @@ def piecewise_data(breaks, coefficients) -> np.ndarray:
     padded = np.zeros((m, n, PIECEWISE_ORDER))
     padded[:, :, :degree] = coefficients
     return np.concatenate([[PIECEWISE, n, m], breaks, padded.ravel()])
-
-
-def _times_and_values(times, values) -> tuple[np.ndarray, np.ndarray]:
-    times = _vector(times, None, "times")
-    values = np.asarray(values, dtype=float)
-    if values.ndim != 2 or values.shape[0] != times.shape[0]:
-        raise ReferenceSpecError(f"values: expected shape ({times.shape[0]}, n) matching times, "
-                                 f"got {values.shape}")
-    if times.shape[0] < 2 or np.any(np.diff(times) <= 0):
-        raise ReferenceSpecError("times: need at least two strictly increasing times")
-    if not np.all(np.isfinite(values)):
-        raise ReferenceSpecError("values: values must be finite")
-    return times, values
 
 
 @scenario_type("trapezoidal")
