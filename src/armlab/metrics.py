@@ -21,6 +21,8 @@ import numpy as np
 
 WINDOW = 0.05
 BAND = 0.02
+FORCE_REFERENCES = ("f_d", "f_des", "h_d", "h_des", "f_ref")
+"""Names of the logged signals that carry a desired contact force, the first one present wins."""
 
 
 def tail_slice(t: np.ndarray, fraction: float = WINDOW) -> slice:

@@ -41,14 +41,12 @@ import math
 
 import numpy as np
 
-from armlab.metrics import overshoot, settling_time, steady_state, tail_slice
+from armlab.metrics import FORCE_REFERENCES, overshoot, settling_time, steady_state, tail_slice
 
 PARAMETER_BAND = 0.05
 FLOOR = 1e-9
 """Deviations below this (in the signal's unit, m or rad) are round-off: a component that
 moves less than that is constant (an orientation error of 1e-13 rad has nothing to settle)."""
-FORCE_REFERENCES = ("f_d", "f_des", "h_d", "h_des", "f_ref")
-"""Signal names of a desired contact force, as the interaction controllers log it."""
 
 METRICS: tuple[tuple[str, str], ...] = (
     ("settling_time", "s"), ("overshoot", "%"), ("steady_state_error", ""), ("oscillation", ""),

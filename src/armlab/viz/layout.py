@@ -35,6 +35,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from armlab.metrics import FORCE_REFERENCES
 from armlab.viz.theory import linear_response
 
 ACTUAL, DESIRED, LIMIT, COMMAND, COMPLIANT = "#1f5fd6", "#222222", "#d62728", "#f09030", "#2ca02c"
@@ -48,7 +49,6 @@ TRACE_LINES = (("-", 2.6), ("--", 1.8), (":", 2.0), ("-.", 1.4), ((0, (5, 1.5)),
 GREEK = {"theta": "θ", "phi": "φ", "psi": "ψ", "alpha": "α", "beta": "β", "gamma": "γ",
          "tau": "τ", "sigma": "σ", "lambda": "λ", "omega": "ω", "mu": "μ", "pi": "π"}
 REFERENCE_SUFFIXES = ("_des", "_d", "_ref")
-FORCE_REFERENCES = ("f_d", "f_des", "h_d", "h_des", "f_ref")
 SINGULAR_VALUE_NAMES = ("jacobian_sv", "singular_values", "sv", "sigma_j", "jacobian_singular_values")
 # Controllers whose p_des is an internal x_d = 0, not a reference (pure force control, A14).
 FORCE_ONLY_CONTROLLERS = ("ForceControl",)
