@@ -431,7 +431,8 @@ def _run_rk4(setup, cparams, meta, on_divergence):
     fset, iset = setup.settings()
     out = setup.outputs()
     start = time.perf_counter()
-    status, rows, step, joint = run_interruptible(lambda: _rk4(setup, cparams, fset, iset, out), fset)
+    status, rows, step, joint = run_interruptible(lambda: _rk4(setup, cparams, fset, iset, out), fset,
+                                                  joint_steps=setup.n_steps * setup.n)
     meta = {**(meta or {}), "wall_time": time.perf_counter() - start}
     result = setup.result(setup.views(out), rows, "rk4", meta)
     return _finish(setup, result, status, step, joint, on_divergence)
