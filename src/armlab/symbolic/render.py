@@ -13,16 +13,12 @@ letter); minus signs are U+2212.
 from __future__ import annotations
 
 import html
-from typing import TYPE_CHECKING
 
 import sympy as sp
 from sympy.printing.conventions import split_super_sub
 from sympy.printing.mathml import MathMLPresentationPrinter
 from sympy.printing.precedence import PRECEDENCE
 from sympy.printing.pretty.pretty_symbology import greek_unicode, pretty_symbol
-
-if TYPE_CHECKING:  # a section displays itself with this module's printers
-    from armlab.symbolic.sections import Section
 
 FORMATS = ("text", "latex", "markdown")
 # Greek variants SymPy's Unicode table lacks (its LaTeX printer knows them: \\varphi, \\vartheta).
@@ -241,9 +237,11 @@ def to_mathml(expr, *, numeric: bool = False) -> str:
     return MathMLPrinter().doprint(_numeric(sp.sympify(expr), numeric))
 
 
-def render(sections: list[Section], fmt: str = "text", *, numeric: bool = False,
+def render(sections: list, fmt: str = "text", *, numeric: bool = False,
            heading: str = "") -> str:
-    """The sections as one document in ``fmt`` ("text", "latex" or "markdown")."""
+    """The sections (:class:`armlab.symbolic.sections.Section`, which display themselves with
+    this module's printers: hence no import of them here) as one document in ``fmt`` ("text",
+    "latex" or "markdown")."""
     if fmt not in FORMATS:
         raise ValueError(f"unknown format {fmt!r} (use {', '.join(FORMATS)})")
     out: list[str] = []
