@@ -238,13 +238,13 @@ def main():
     print("agreement (tables bit for bit):", ", ".join(check_agreement()))
     with tempfile.TemporaryDirectory() as folder:
         warm = spec_of(folder, 2 * cores, chunk=1, name="warm")
-        sweep(warm, Path(folder) / "warm", threads=None)          # load the compiled code once
+        sweep(warm, Path(folder) / "warm", threads=cores)         # load the compiled code once
         # Chunks of at most 200 runs and at least 20 chunks: a steady rate after the first.
         single_spec = spec_of(folder, SINGLE_RUNS, chunk=min(200, max(1, SINGLE_RUNS // 20)), name="single")
         spec = spec_of(folder, RUNS, chunk=min(200, max(1, RUNS // 20)), name="all")
         one, steady_1, _ = timed(single_spec, folder, threads=1)
         rows = [("1 thread", SINGLE_RUNS, one, SINGLE_RUNS / one, steady_1, None)]
-        executors = [(f"{cores} threads", dict(threads=None)), (f"{cores} processes", dict(processes=cores))]
+        executors = [(f"{cores} threads", dict(threads=cores)), (f"{cores} processes", dict(processes=cores))]
         if dask_available():
             executors.append((f"Dask, {cores} processes", dict(workers=cores)))
         else:

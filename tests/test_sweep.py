@@ -251,6 +251,19 @@ def test_table_is_identical_whatever_the_threads_processes_and_chunks(tmp_path):
     assert list(reference["run"]) == list(range(6))
 
 
+def test_a_large_sweep_with_no_executor_chosen_runs_on_processes(monkeypatch, tmp_path):
+    from armlab.sweep import runner
+
+    monkeypatch.setattr(runner.os, "cpu_count", lambda: 2)
+    assert runner.default_processes(runner.PROCESS_RUNS) == 2
+    assert runner.default_processes(runner.PROCESS_RUNS - 1) is None      # threads
+    monkeypatch.setattr(runner.os, "cpu_count", lambda: 1)
+    assert runner.default_processes(10**6) is None
+    # What sweep() does with it: a small sweep and no executor runs on threads.
+    outcome = sweep(small(tmp_path, "chunk_size = 3"), tmp_path / "out")
+    assert outcome.executor.endswith("local threads")
+
+
 # ---------------------------------------------------------------------------- the store
 
 def test_resume_runs_only_missing_chunks_and_refuses_another_sweep(tmp_path):

@@ -10,7 +10,8 @@ def register(subparsers) -> None:
         "sweep", help="run a sweep or Monte Carlo file over a scenario (see docs/sweeps.md)",
         description="Run every run of the sweep FILE (a bundled sweep name or a sweep .toml file) and "
                     "write one row per run (parameters, status, metrics) to the Parquet dataset "
-                    "DIR/runs.  Runs on local threads by default (local processes with --processes), "
+                    "DIR/runs.  Runs on a local thread per core by default (a local process per core "
+                    "from 2000 runs on; choose with --threads or --processes), "
                     "on a Dask cluster with --scheduler "
                     "or --workers.  An interrupted sweep started again with the same --out resumes "
                     "where it stopped.")
