@@ -179,3 +179,92 @@ def test_det_jp_is_in_metres_per_revolute_joint():
     sv, det = jacobian_signals(load_robot("prp"))      # P R P: one revolute column in J_P
     assert det.units == ("m",) and sv.width == 3
     assert jacobian_signals(load_robot("planar2r"))[1].units == ("m^2",)
+
+
+# ------------------------------------------------------------------ joint damping K_q of (C9), (C11)
+
+
+def test_joint_damping_dissipates_what_the_lyapunov_rate_says():
+    """τ = g + J_Pᵀ(K_P p̃ − K_D J_P q̇) − K_q q̇ on a 6R arm with a 3-D position task: along the
+    run, V = ½ q̇ᵀB q̇ + ½ p̃ᵀK_P p̃ falls at V̇ = −q̇ᵀ(J_PᵀK_D J_P + K_q) q̇ (V̇ from the logged states
+    by finite differences, B and J_P from armlab's model functions).  Without K_q a self-motion
+    started in the wrist keeps its speed (V̇ = 0 there); with K_q it dies out."""
+    from armlab.control.task_space import OperationalPD
+    from armlab.dynamics import inertia_matrix
+    from armlab.kinematics import forward_kinematics, geometric_jacobian
+    from armlab.simulation import simulate
+
+    robot = six_dof_arm()
+    q0 = np.array([0.2, 0.5, -0.4, 0.3, 0.9, -0.2])
+    start = forward_kinematics(robot, q0)
+    p_d = start[:3, 3] + np.array([0.05, -0.05, -0.08])
+    goal = PoseReference.constant(p_d, start[:3, :3])
+    kp, kd = 100.0, 20.0
+    final_speed = {}
+    for name, kq in (("plain", 0.0), ("damped", np.array([2.0, 2.0, 1.0, 0.1, 0.1, 0.05]))):
+        controller = OperationalPD(robot, goal, kp=kp, kd=kd, joint_damping=kq)
+        result = simulate(robot, controller, q0=q0, qd0=[0.0, 0.0, 0.0, 1.0, -1.0, 1.0], t_final=4.0,
+                          dt=1e-3)
+        K_q = np.diag(np.broadcast_to(kq, (6,)))
+        energy, power = [], []
+        for q, qd in zip(result.q, result.qd):
+            J_P = geometric_jacobian(robot, q)[:3]
+            p_err = p_d - forward_kinematics(robot, q)[:3, 3]
+            energy.append(0.5 * qd @ inertia_matrix(robot, q) @ qd + 0.5 * kp * p_err @ p_err)
+            power.append(qd @ (kd * J_P.T @ J_P + K_q) @ qd)
+        rate, power = np.gradient(np.array(energy), result.t)[2:-2], np.array(power)[2:-2]
+        assert np.abs(rate + power).max() < 1e-4 * power.max(), name
+        final_speed[name] = np.abs(result.qd[-1]).max()
+    assert final_speed["plain"] > 1.0 and final_speed["damped"] < 0.1
+
+
+@pytest.mark.parametrize("name", ["a09_pd_goal", "a11_compliance"])
+def test_zero_joint_damping_is_the_plain_law_bit_for_bit(name, tmp_path):
+    """K_q = 0 however written (number, diagonal, matrix) gives the run of the file without the
+    field, array for array; a nonzero K_q does change it (the field is read)."""
+    from armlab.scenarios import load_scenario, load_scenario_file
+
+    scenario = load_scenario(name)
+    before = scenario.run(t_final=2.0).groups()
+    text = open(scenario.source, encoding="utf-8").read()
+    assert "joint_damping" not in text
+    for value, same in (("0.0", True), ("[0, 0, 0]", True), ("[[0, 0, 0], [0, 0, 0], [0, 0, 0]]", True),
+                        ("[0, 0.5, 0]", False)):
+        path = tmp_path / "with_field.toml"
+        path.write_text(text.replace("[controller]\n", f"[controller]\njoint_damping = {value}\n"),
+                        encoding="utf-8")
+        after = load_scenario_file(path).run(t_final=2.0).groups()
+        assert before.keys() == after.keys()
+        identical = all(before[key].tobytes() == after[key].tobytes() for key in before)
+        assert identical == same, value
+
+
+NOT_PSD = "controller: joint_damping: a gain must be positive semi-definite (smallest eigenvalue"
+
+
+@pytest.mark.parametrize("value, message", [
+    ("-1.0", f"{NOT_PSD} -1)"),
+    ("[1, -2, 3]", f"{NOT_PSD} -2)"),
+    ("[1, 2]", "controller: joint_damping: expected a number, 3 numbers or a 3×3 matrix, got shape (2,)"),
+    ("1e400", "controller.joint_damping: must be finite, got inf"),
+    ('"x"', "controller.joint_damping: cannot evaluate 'x'"),
+])
+def test_a_bad_joint_damping_is_a_one_line_error_naming_the_field(value, message, tmp_path):
+    from armlab.scenarios import ScenarioFileError, load_scenario, load_scenario_file
+
+    text = open(load_scenario("a09_pd_near_singular").source, encoding="utf-8").read()
+    path = tmp_path / "bad.toml"
+    path.write_text(text.replace("[controller]\n", f"[controller]\njoint_damping = {value}\n"),
+                    encoding="utf-8")
+    with pytest.raises(ScenarioFileError) as caught:
+        load_scenario_file(path)
+    assert str(caught.value).startswith(f"{path}: {message}") and "\n" not in str(caught.value)
+
+
+def test_joint_damping_from_python_is_checked_too():
+    from armlab.control.interaction import ComplianceControl
+    from armlab.errors import ControllerSpecError
+
+    goal = PoseReference.constant([0.0, -0.1, 0.4], euler_matrix(SEED_ANGLES, "zyz"))
+    with pytest.raises(ControllerSpecError, match=r"^joint_damping: must be finite$"):
+        ComplianceControl(load_robot("prp"), goal, kp=10.0, kd=5.0, joint_damping=[1.0, np.nan, 1.0])

@@ -16,6 +16,13 @@ assignments (the same format as the bundled ones, so each can be read, edited an
   arm's Coulomb friction F_s would leave more than a 1 mm / 1 mrad dead band (the PD laws do
   not compensate friction: at rest K_P q̃ balances a static friction |τ_f,i| ≤ F_s,i), with
   K_D for ζ = 1 on the inertia (K_D = 2√(K_P B));
+* **joint damping of the self-motion** — on an arm of n > 3 joints the task-space PD laws (A9,
+  A11) damp only the three task velocities (V̇ = −q̇ᵀJ_PᵀK_D J_P q̇ vanishes on the n − 3
+  directions of self-motion), so they get K_q,i = (ω_n/2) B_ii(q_g) (τ … − K_q q̇, C9): the
+  self-motion's velocity then decays at K_q,i/B_ii = ω_n/2, and the task loop, critically
+  damped by K_D, gains about (ω_n/2) B_P of damping (ζ = 1.25), whose slow pole is also ω_n/2.
+  With K_q = c B, the slower of the two rates, min(c, ω_n(1 + u − √((1 + u)² − 1))) with
+  u = c/(2ω_n), is largest at c = ω_n/2 (damping less leaves the self-motion slow, more the task);
 * **the environment** — a plane through the end effector's position at q_g, normal to gravity
   (a table under the tool; normal n = −g/|g|, pointing into free space), pushed 1 cm into by
   the compliance and impedance references, pressed on with f_d = −0.5 n N by the force laws;
@@ -243,12 +250,19 @@ class _Plan:
         kp = max(heavy * OMEGA**2, held / DEAD_BAND)
         kd = 2 * math.sqrt(kp * heavy)
         damping = {} if n == 3 else {"damping": DAMPING}
+        # K_q for the self-motion of the module docstring (n > 3 only: the PRP's files stay the seed's).
+        joint_damping = 0.5 * OMEGA * np.diag(self.B)
+        self_motion = {} if n <= 3 else {"joint_damping": joint_damping}
+        law = "τ = g + J_Pᵀ(K_P p̃ − K_D J_P q̇)" + ("" if n <= 3 else " − K_q q̇")
+        said = "" if n <= 3 else (f"; K_q = (ω_n/2) B_ii(q_g) = {np.round(joint_damping, 4).tolist()} "
+                                  "damps the self-motion the 3-D task leaves free")
         task = {"frame": "base", "task": [0, 1, 2], "euler": euler, "angle_reference": angles}
         start = {"t_final": 6.0, "q0": q_s}
         self.add("a09_pd_goal", "A9", "A9 — operational-space PD with gravity compensation to the goal",
-                 f"τ = g + J_Pᵀ(K_P p̃ − K_D J_P q̇), K_P = {kp:.4g} N/m (λ_max(B_P) ω_n², or what holds the "
-                 "arm's Coulomb friction to 1 mm)", start,
-                 {"type": "operational_pd", **task, "kp": kp, "kd": kd, "reference": poses([0.0], p_g)})
+                 f"{law}, K_P = {kp:.4g} N/m (λ_max(B_P) ω_n², or what holds the "
+                 f"arm's Coulomb friction to 1 mm){said}", start,
+                 {"type": "operational_pd", **task, "kp": kp, "kd": kd, **self_motion,
+                  "reference": poses([0.0], p_g)})
         self.add("a10_id_via_poses", "A10", "A10 — operational-space inverse dynamics along a straight line",
                  "Rest-to-rest quintic along the straight line from start to goal, tracked exactly "
                  "(ω_n = 5 rad/s, ζ = 1)" + ("" if n == 3 else "; damped least squares, λ = 1e-3"),
@@ -260,8 +274,8 @@ class _Plan:
         self.add("a11_compliance", "A11", "A11 — compliance control against the surface",
                  f"PD + g towards a point 1 cm inside a surface as stiff as the controller (K = K_P = "
                  f"{kp:.4g} N/m along the normal): it settles half-way, at "
-                 "x_e = (K_P + K)⁻¹(K_P x_d + K x_r)",
-                 start, {"type": "compliance", **task, "kp": kp, "kd": kd, "reference": into},
+                 f"x_e = (K_P + K)⁻¹(K_P x_d + K x_r){said}",
+                 start, {"type": "compliance", **task, "kp": kp, "kd": kd, **self_motion, "reference": into},
                  {"type": "spring", "stiffness": _surface(kp, normal), "rest_position": p_g})
         self.add("a12_impedance_regulation", "A12", "A12 — impedance control against the surface",
                  "M_d p̃̈ + K_D p̃̇ + K_P p̃ = h_A with M_d = 1 kg, K_P = 25 N/m, K_D = 10 N·s/m", start,

@@ -3,7 +3,7 @@
 Indirect force control works on the pose relative to the desired frame Σ_d
 (``frame="desired"``, x̃ = −[o^d_{d,e}; φ_{d,e}], XYZ angles, T1–T4):
 
-* :class:`ComplianceControl` (A11)   τ = g + J_{A_d}ᵀ (K_P x̃ − K_D J_{A_d} q̇)               (C11)
+* :class:`ComplianceControl` (A11)   τ = g + J_{A_d}ᵀ (K_P x̃ − K_D J_{A_d} q̇) − K_q q̇         (C11)
 * :class:`ImpedanceControl` (A12)    M_d x̃̈ + K_D x̃̇ + K_P x̃ = h_A imposed through inverse
   dynamics with the measured wrench                                                        (C12)
 * :class:`AdmittanceControl` (A13)   compliant frame Σ_t from M_t z̃̈ + K_Dt z̃̇ + K_Pt z̃ = h_e^d,
@@ -64,12 +64,17 @@ ALL6 = (0, 1, 2, 3, 4, 5)
 class ComplianceControl(OperationalPD):
     """Compliance control (seed A11; Siciliano (9.15)): PD + gravity in Σ_d,
 
-        τ = g(q) + J_{A_d}ᵀ(q, x̃) (K_P x̃ − K_D J_{A_d}(q, x̃) q̇)                            (C11)
+        τ = g(q) + J_{A_d}ᵀ(q, x̃) (K_P x̃ − K_D J_{A_d}(q, x̃) q̇) − K_q q̇                      (C11)
 
     At rest in contact with a spring environment of stiffness K about Σ_r ∥ Σ_d (E2, E3) the
     equilibrium is K_P x̃ = K x_{r,e}, i.e. x_e = (K_P + K)⁻¹(K_P x_d + K x_r) component by
     component of Σ_d (the directions the robot can move).  No inverse is needed, so every
     component may be controlled (``task`` default: all six, in Σ_d's axes).
+
+    ``joint_damping`` K_q is :class:`~armlab.control.task_space.OperationalPD`'s: with
+    V = ½ q̇ᵀB q̇ + ½ x̃ᵀK_P x̃ + ½ x_{r,e}ᵀK x_{r,e}, V̇ = −q̇ᵀ(J_{A_d}ᵀK_D J_{A_d} + K_q + F_v) q̇,
+    negative definite in q̇ with K_q > 0 even on an arm with more joints than task components,
+    whose self-motion K_D alone leaves undamped; the equilibrium (q̇ = 0) is the one above.
     """
 
     task: tuple[int, ...] = ALL6

@@ -196,14 +196,15 @@ class OperationalPDParams(NamedTuple):
     mode: int                       # RELATIVE (frame "desired") or ABSOLUTE ("base")
     convention: int                 # Euler angles of x, ``spatial.euler_code``
     angle_reference: np.ndarray     # (3,) [rad] φ_d is the Euler triple nearest to it
+    joint_damping: np.ndarray       # (n, n) K_q [N·m·s/rad | N·s/m]; zeros: the plain (C9)
 
 
 @njit(cache=True)
 def operational_pd_law(t, q, qd, z, h_e, params, tau_out, zdot_out, signals_out):
-    """τ = g(q) + J_sᵀ (K_P x̃_s − K_D J_s q̇)   (C9, Siciliano (8.110); (9.15) in Σ_d);
+    """τ = g(q) + J_sᵀ (K_P x̃_s − K_D J_s q̇) − K_q q̇   (C9, Siciliano (8.110); (9.15) in Σ_d);
     ``params`` an :class:`OperationalPDParams`."""
     m, dws, ws = params.model, params.workspace, params.task_workspace
-    task, kp, kd = params.task, params.kp, params.kd
+    task, kp, kd, kq = params.task, params.kp, params.kd, params.joint_damping
     ref, mode, convention, angles = params.reference, params.mode, params.convention, params.angle_reference
     k = task.shape[0]
     n = q.shape[0]
@@ -226,7 +227,14 @@ def operational_pd_law(t, q, qd, z, h_e, params, tau_out, zdot_out, signals_out)
         acc = 0.0
         for r in range(k):
             acc += ws.A[r, j] * ws.rhs[r]
+        # Only the nonzero entries of K_q: with K_q = 0 the sum stays +0.0 and τ is the plain
+        # (C9) bit for bit (x − 0.0 = x), even where a product 0 · q̇ would not be 0.
+        damp = 0.0
+        for i in range(n):
+            if kq[j, i] != 0.0:
+                damp += kq[j, i] * qd[i]
         tau_out[j] += acc
+        tau_out[j] -= damp
     log_task_signals(ws, task, signals_out, log_pose_signals(ws, signals_out))
 
 
@@ -312,18 +320,42 @@ def solve_and_apply(m, dws, ws, q, qd, h_e, compensate, tau_out):
 class OperationalPD(TaskController):
     """Operational-space PD with gravity compensation (seed A9; Siciliano (8.110)):
 
-        τ = g(q) + J_sᵀ(q) (K_P x̃_s − K_D J_s(q) q̇)                                     (C9)
+        τ = g(q) + J_sᵀ(q) (K_P x̃_s − K_D J_s(q) q̇) − K_q q̇                              (C9)
 
     J_s = S J_A (``frame="base"``) or S J_{A_d} (``frame="desired"``), S the task selection.
     Regulation law: the reference's velocity is not fed forward.  The seed's "equivalent"
     second form g + J_AᵀK_P x̃ − K_D q̇ damps in joint space instead and is a different law.
     ``kp``, ``kd`` (k, k) [N/m, N·s/m; N·m/rad, N·m·s/rad].
+
+    ``joint_damping`` K_q (a number, n diagonal entries or an n × n matrix, symmetric positive
+    semi-definite, [N·m·s/rad | N·s/m]; default 0, the plain law of the seed) damps the joint
+    velocities the task does not see.  With a constant x_d and (for ``frame="base"``)
+    ẋ̃_s = −J_s q̇, the energy V = ½ q̇ᵀB q̇ + ½ x̃_sᵀK_P x̃_s (+ the environment's potential, whose
+    rate cancels the contact power) has, by the skew symmetry of Ḃ − 2C,
+
+        V̇ = −q̇ᵀ (J_sᵀK_D J_s + K_q + F_v) q̇        (F_v the plant's viscous friction)
+
+    J_sᵀK_D J_s has rank k: when the arm has more joints than task components (n > k) and no
+    friction, V̇ = 0 on the n − k directions of the self-motion, which keeps moving undamped.
+    K_q > 0 makes V̇ negative definite in q̇, so by LaSalle every motion ends at rest, where
+    J_sᵀK_P x̃_s = Jᵀh_e: the same equilibria as without K_q (q̇ = 0 there), only reached.
+    K_q also damps the task's own motion (by J̄ᵀK_q J̄ in task space, J̄ the inertia-weighted
+    inverse of J_s): it changes the transient, not where the arm settles.
     """
+
+    joint_damping: object = 0.0
 
     law = operational_pd_law
 
+    def __post_init__(self):
+        super().__post_init__()
+        self._derived["joint_damping"] = gain_matrix(self.joint_damping, self.model.n, "joint_damping")
+
     def params(self) -> OperationalPDParams:
-        return OperationalPDParams(**self._common())
+        return OperationalPDParams(**self._common(), joint_damping=self._derived["joint_damping"].copy())
+
+    def describe(self) -> dict:
+        return {**super().describe(), "joint_damping": self._derived["joint_damping"].tolist()}
 
 
 @scenario_type("operational_inverse_dynamics")
