@@ -9,7 +9,7 @@ from armlab.commands import add_tip_argument
 
 def register(subparsers) -> None:
     parser = subparsers.add_parser(
-        "report", help="write one self-contained HTML report of the seed project (A1–A15)",
+        "report", help="write the HTML report of the seed project (A1–A15), offline",
         description="Derive A1–A5, run every bundled scenario of the robot (A6–A15), and write "
                     "DIR/report.html with formulas, scope plots, measured numbers and an animation, and "
                     "an interactive 3-D view of every run in DIR/view3d (with plotly installed). "

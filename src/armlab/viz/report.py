@@ -1,4 +1,4 @@
-"""``armlab report``: one self-contained HTML document reproducing the seed project.
+"""``armlab report``: one HTML document reproducing the seed project, offline.
 
 The document has one section per seed assignment that armlab can run for the chosen robot:
 
