@@ -58,7 +58,7 @@ def outputs(nb):
 def test_there_are_the_examples_the_docs_promise():
     names = [path.name for path in EXAMPLES]
     assert names == ["01-derivations-A1-A5.ipynb", "02-joint-control-A6-A8.ipynb",
-                     "03-interaction-A9-A15.ipynb", "04-your-own-robot.ipynb"]
+                     "03-interaction-A9-A15.ipynb", "04-your-own-robot.ipynb", "05-sweep.ipynb"]
     for path in EXAMPLES:  # committed without outputs: what runs in CI is what is read
         assert all(not cell.get("outputs") for cell in nbformat.read(path, as_version=4).cells
                    if cell.cell_type == "code")
@@ -113,3 +113,27 @@ def test_the_3d_view_is_in_the_page_and_needs_no_network(executed, name):
     assert len(produced) > 3_000_000
     assert not re.search(r"""<script[^>]*src=["']https?://""", produced)
     assert page.count("<td>status</td><td>ok</td>") >= 1
+
+
+def test_the_sweep_shows_its_table_and_plots(executed):
+    """The A11 stiffness sweep: one row per run with its status and metrics, the runs past
+    2·10⁶ N/m diverged, the others at the equilibrium of the controller's spring K_P = 20 N/m
+    in series with the wall's K, x_d − x_r = 0.1 m apart (a11_compliance.toml):
+    f = K_P K/(K_P + K)(x_d − x_r), ‖x_d − x_e‖ = K/(K_P + K)(x_d − x_r); and the figures."""
+    nb = executed["05-sweep.ipynb"]
+    (table,) = [output["data"]["text/html"] for output in outputs(nb)
+                if "text/html" in output.get("data", {}) and "<table" in output["data"]["text/html"]]
+    headers = re.findall(r"<th>([^<]+)</th>", table)
+    assert headers[:6] == ["environment.stiffness[2]", "status", "contact_force", "position_error",
+                           "settling_time", "divergence_time"]
+    rows = re.findall(r"<tr>\s*<th>\d+</th>(.*?)</tr>", table, re.S)
+    cells = [re.findall(r"<td>([^<]*)</td>", row) for row in rows]
+    assert len(cells) == 19
+    status = {float(row[0]): row[1] for row in cells}
+    assert {k for k, s in status.items() if s == "diverged"} == {k for k in status if k > 2e6}
+    for row in cells:
+        if row[1] == "ok":
+            k = float(row[0])
+            assert abs(float(row[2]) - 20 * k / (20 + k) * 0.1) < 1e-3, row  # table rounded to 1e-4
+            assert abs(float(row[3]) - k / (20 + k) * 0.1) < 1e-3, row
+    assert rich(nb, "image/png") >= 2  # the notebook's figure and the sweep file's picture

@@ -83,30 +83,23 @@ def test_the_html_file_carries_plotly_and_asks_for_nothing(contact_run, tmp_path
     assert len(re.findall(r"<script", text)) >= 2 and not re.findall(r"<script[^>]*\bsrc=", text)
 
 
-# Advisories Chromium itself writes to the console while WebGL runs on its software renderer
-# (a canvas read back often, the driver stalling on ReadPixels): not messages of the page.
-BROWSER_NOTES = ("Canvas2D: Multiple readback operations using getImageData",
-                 "GL Driver Message (OpenGL, Performance")
-
-
-def _errors(log: str) -> list[str]:
-    from test_report import _console
-
-    return [line for line in _console(log) if not any(note in line for note in BROWSER_NOTES)]
-
-
 def test_the_view_renders_in_headless_chromium_offline(contact_run, tmp_path):
-    from test_report import CHROMIUM, _ConnectionRecorder, _hosts, _run_chromium
+    from test_report import (
+        BROWSER_SERVICES,
+        CHROMIUM,
+        WEBGL_FLAGS,
+        _ConnectionRecorder,
+        _hosts,
+        _run_chromium,
+    )
+    from test_report import _console as _errors
 
     if CHROMIUM is None:
         pytest.skip("chromium not installed: apt-get install -y chromium to run this check")
     page = write_view3d(contact_run, tmp_path / "view.html")
     empty = tmp_path / "empty.html"
     empty.write_text("<!DOCTYPE html><html><body></body></html>", encoding="utf-8")
-    # WebGL without a GPU: Chromium's software renderer.
-    # Chromium's own model downloads (optimization guide) off: they are not the page's requests.
-    gl = ["--enable-unsafe-swiftshader", "--use-angle=swiftshader", "--virtual-time-budget=8000",
-          "--disable-features=OptimizationHints,OptimizationHintsFetching,OptimizationGuideModelDownloading"]
+    gl = WEBGL_FLAGS
     shot_path = tmp_path / "view.png"
     recorder = _ConnectionRecorder()
     try:
@@ -123,7 +116,7 @@ def test_the_view_renders_in_headless_chromium_offline(contact_run, tmp_path):
     finally:
         recorder.close()
     assert dom.returncode == 0, dom.stderr[-2000:]
-    assert _hosts(requests) - background == set()
+    assert _hosts(requests) - background - BROWSER_SERVICES == set()
     assert _errors(dom.stderr) == [] and _errors(shot.stderr) == []
     assert any("Uncaught Error: planted" in line for line in _errors(control.stderr))  # the check bites
     rendered = re.sub(r"<script.*?</script>", "", dom.stdout, flags=re.DOTALL)  # the page, not plotly.js

@@ -9,10 +9,11 @@ from armlab.commands import add_tip_argument
 
 def register(subparsers) -> None:
     parser = subparsers.add_parser(
-        "report", help="write one self-contained HTML report of the seed project (A1–A15)",
+        "report", help="write the HTML report of the seed project (A1–A15), offline",
         description="Derive A1–A5, run every bundled scenario of the robot (A6–A15), and write "
-                    "DIR/report.html with formulas, scope plots, measured numbers and an animation. "
-                    "The file has no external resources and opens offline.",
+                    "DIR/report.html with formulas, scope plots, measured numbers and an animation, and "
+                    "an interactive 3-D view of every run in DIR/view3d (with plotly installed). "
+                    "Nothing is loaded from a network: the report opens offline.",
         formatter_class=argparse.ArgumentDefaultsHelpFormatter)
     parser.add_argument("--robot", default="prp", help="bundled robot name or robot file")
     add_tip_argument(parser)
@@ -21,6 +22,8 @@ def register(subparsers) -> None:
                         help="a fast preview: the first scenario of each assignment, runs shortened, "
                              "no animation (the numbers are those of the short runs)")
     parser.add_argument("--no-animation", action="store_true", help="leave out the GIF")
+    parser.add_argument("--no-views", action="store_true",
+                        help="leave out the interactive 3-D views (pages in DIR/view3d, need plotly)")
     parser.add_argument("--quiet", action="store_true", help="no progress bar and no warnings")
     parser.add_argument("--sweep", action="append", default=[], metavar="DIR",
                         help="add the page of the sweep written to DIR by `armlab sweep` (repeatable)")
@@ -41,6 +44,7 @@ def run(args) -> int:
 
     robot = load_robot(args.robot, tip=args.tip)
     path = build_report(robot, args.out, quick=args.quick, show_progress=not args.quiet,
-                        animation=not (args.no_animation or args.quick), sweeps=args.sweep)
+                        animation=not (args.no_animation or args.quick), sweeps=args.sweep,
+                        views=not args.no_views)
     print(path)
     return 0

@@ -10,11 +10,12 @@ from armlab.model.robot import (
     Motor,
     Robot,
     RobotArrays,
+    Visual,
 )
 from armlab.model.toml_io import RobotFileError, load_robot_toml, robot_from_dict
 
 __all__ = [
     "DHRow", "Friction", "Inertial", "Joint", "Link", "Motor", "Robot", "RobotArrays",
-    "RobotFileError", "box_inertia", "cylinder_inertia", "load_robot_toml", "robot_from_dict",
-    "sphere_inertia", "steiner",
+    "RobotFileError", "Visual", "box_inertia", "cylinder_inertia", "load_robot_toml",
+    "robot_from_dict", "sphere_inertia", "steiner",
 ]

@@ -151,6 +151,32 @@ class Link:
     inertial: Inertial = field(default_factory=Inertial)
 
 
+@dataclass(frozen=True)
+class Visual:
+    """A mesh of the robot file drawn on one of its frames (a URDF ``<visual>`` whose geometry
+    is a ``<mesh>``).  Only drawings read it: kinematics and dynamics never do.
+
+    A point p of the mesh file is drawn at
+
+        p_frame = T · diag(scale) · p                                                   (V1)
+
+    in Σ_0 (``body`` 0, parts fixed to the ground) or in link frame Σ_i (``body`` i = 1 … n,
+    parts moved by joint i), ``T`` = ``pose`` (4, 4) folding the file's fixed joints and the
+    visual's ``<origin>``.  ``mesh`` is the mesh file's path, ``part`` the file's link that
+    carries it.
+    """
+
+    body: int
+    pose: np.ndarray
+    mesh: str
+    scale: np.ndarray = field(default_factory=lambda: np.ones(3))
+    part: str = ""
+
+    def __post_init__(self):
+        object.__setattr__(self, "pose", _frozen_array(self.pose, (4, 4)))
+        object.__setattr__(self, "scale", _frozen_array(self.scale, (3,)))
+
+
 class RobotArrays(NamedTuple):
     """The plain-array form of a :class:`Robot` consumed by the compiled kernels.
 
@@ -215,7 +241,8 @@ class Robot:
     file's raw content, expressions unevaluated, for the symbolic derivations.  ``notes`` are
     one-line remarks of the loader on what it changed from the file (side branches locked,
     limits read as absent, the package a zoo robot came from); ``tip`` the link (URDF) or body
-    (MJCF) of the file that carries Σ_e ("" for armlab's own files).  ``arrays`` is its
+    (MJCF) of the file that carries Σ_e ("" for armlab's own files); ``visuals`` the meshes
+    of the file's links (:class:`Visual`), drawn by :mod:`armlab.viz.view3d`.  ``arrays`` is its
     :class:`RobotArrays`, derived at construction.
     """
 
@@ -231,12 +258,14 @@ class Robot:
     spec: dict = field(default_factory=dict)
     notes: tuple[str, ...] = ()
     tip: str = ""
+    visuals: tuple[Visual, ...] = ()
     arrays: RobotArrays = field(init=False, repr=False, compare=False)
 
     def __post_init__(self):
         object.__setattr__(self, "joints", tuple(self.joints))
         object.__setattr__(self, "links", tuple(self.links))
         object.__setattr__(self, "notes", tuple(self.notes))
+        object.__setattr__(self, "visuals", tuple(self.visuals))
         object.__setattr__(self, "gravity", _frozen_array(self.gravity, (3,)))
         object.__setattr__(self, "base", _frozen_array(self.base, (4, 4)))
         object.__setattr__(self, "tool", _frozen_array(self.tool, (4, 4)))

@@ -75,6 +75,7 @@ class Experiment:
     t_final: float | None = None
     kind: str = ""
     predicted: list = field(default_factory=list)   # rows of armlab.theory.predictions
+    view: str = ""   # its 3-D view page, relative to the report's folder ("" for none)
 
     def run(self):
         """Run the scenario: ``runner()`` returns its SimulationResult."""

@@ -37,6 +37,8 @@ figure img { display: block; max-width: 100%; height: auto; }
 figure.scope img { width: 570px; }
 figure.drawing img { width: 400px; }
 figure.drawing figcaption { max-width: 400px; }
+figure.view3d iframe { display: block; width: 760px; max-width: 100%; height: 610px; border: 0; }
+figure.view3d figcaption { max-width: 760px; }
 figcaption { font-size: 12.5px; color: var(--muted); padding: 4px 2px 0; max-width: 570px; }
 table { border-collapse: collapse; margin: 8px 0; font-size: 13.5px; }
 th, td { border: 1px solid var(--rule); padding: 3px 9px; text-align: left; vertical-align: top; }
@@ -150,15 +152,20 @@ def math_block(label: str, body: str) -> str:
 # The page forbids itself every fetch: images only from data: URIs, inline style, no script.
 # A browser that meets anything else blocks it and reports a console error.
 CONTENT_SECURITY_POLICY = "default-src 'none'; img-src data:; style-src 'unsafe-inline'"
+# A page with interactive 3-D views also frames pages of its own origin (its view3d/ folder;
+# 'self' matches file: URLs): still no script in the page itself.
+FRAMING_POLICY = CONTENT_SECURITY_POLICY + "; frame-src 'self'"
 
 
-def document(title: str, subtitle: list[str], nav: list[tuple[str, str]], body: str) -> str:
-    """The whole HTML page: header, navigation, body; no external resource (enforced by its
-    Content-Security-Policy)."""
+def document(title: str, subtitle: list[str], nav: list[tuple[str, str]], body: str, *,
+             frames: bool = False) -> str:
+    """The whole HTML page: header, navigation, body; no external resource and no script
+    (enforced by its Content-Security-Policy; ``frames`` lets it frame its own local pages)."""
     links = "".join(f'<a href="#{escape(i)}">{escape(t)}</a>' for i, t in nav)
     lines = "".join(f"<p>{escape(s)}</p>" for s in subtitle)
+    policy = FRAMING_POLICY if frames else CONTENT_SECURITY_POLICY
     return ("<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">"
-            f'<meta http-equiv="Content-Security-Policy" content="{CONTENT_SECURITY_POLICY}">'
+            f'<meta http-equiv="Content-Security-Policy" content="{policy}">'
             "<meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">"
             f"<title>{escape(title)}</title><style>{STYLE}</style></head><body>"
             f"<header><h1>{escape(title)}</h1>{lines}</header><nav>{links}</nav>"

@@ -1,4 +1,4 @@
-"""``armlab report``: one self-contained HTML document reproducing the seed project.
+"""``armlab report``: one HTML document reproducing the seed project, offline.
 
 The document has one section per seed assignment that armlab can run for the chosen robot:
 
@@ -6,12 +6,15 @@ The document has one section per seed assignment that armlab can run for the cho
   Lagrange and Newton–Euler dynamics, operational-space model) as presentation MathML, with
   the robot drawn with its frames in Σ_base and Σ_0 (the seed's plotTransforms check);
 * A6–A15 from the scenario registry: for every bundled scenario of the robot its description,
-  parameters, scope plots and the measured numbers of :mod:`armlab.viz.metrics`, and one
-  animation.
+  parameters, scope plots and the measured numbers of :mod:`armlab.viz.metrics`, an
+  interactive 3-D view of its run, and one animation.
 
 Sections appear as their code does: a scenario added to the registry shows up in the next
 report without changes here; an assignment with nothing runnable is listed as missing, never
 filled with made-up content.  Images are inlined, so the file can be mailed or opened offline.
+The 3-D views (plotly, the optional extra ``viewer``) are pages of their own in ``view3d/``
+next to it, framed by the report (:mod:`armlab.viz.view_pages`): the report itself runs no
+script; without plotly it has no views and says so in one line.
 """
 
 from __future__ import annotations
@@ -47,6 +50,7 @@ from armlab.viz.metrics import Metric, measure
 from armlab.viz.notes import markdown_html, metric_definitions, seed_notes, source_name
 from armlab.viz.progress import Progress
 from armlab.viz.scopes import SCOPE_DPI, scope_layout, scope_png
+from armlab.viz.view_pages import plotly_js, view_iframe, write_assets, write_view_page
 
 ASSIGNMENTS = {
     1: "Kinematics: DH tables, direct and inverse kinematics, Jacobians",
@@ -67,6 +71,8 @@ ASSIGNMENTS = {
 }
 SEED_POSES = {"prp": np.array([0.1, np.pi / 3, 0.1])}  # the seed's A1 pose
 DRAWING_DPI = 130  # the A1 robot drawings (frame labels legible at the page's 400 px)
+VIEW_FRAMES = 60  # animation frames of a run's 3-D view (as the GIF): ~0.3 MB a PRP page
+NO_VIEWS = "The interactive 3-D views are left out: plotly is not installed (pip install 'armlab[viewer]')."
 
 
 def seed_pose(robot: Robot) -> np.ndarray:
@@ -218,6 +224,11 @@ def _experiment_html(exp: Experiment) -> str:
         items = [html.figure(html.png_data_uri(data), caption, kind="scope", ident=f"fig-{exp.name}-{scope}")
                  for scope, caption, data in exp.figures]
         parts.append('<div class="figures">' + "".join(items) + "</div>")
+    if exp.view:
+        caption = (f"{exp.name} in 3-D: drag to turn, scroll to zoom, ▶ play or move the time slider "
+                   f"(the run resampled to at most {VIEW_FRAMES} frames). The page {exp.view} next to "
+                   "this file draws it with plotly.js from that folder: no network.")
+        parts.append('<div class="figures">' + view_iframe(exp.view, exp.name, caption) + "</div>")
     parts.append("</article>")
     return "".join(parts)
 
@@ -267,6 +278,23 @@ def _comparisons_html(planned: list[Experiment]) -> dict[int, list[str]]:
             f'{html.figure(html.png_data_uri(data), caption, kind="scope", ident=f"fig-{ident}")}'
             "</div></article>")
     return blocks
+
+
+def _write_views(planned: list[Experiment], out_dir: Path, script: tuple[str, str]) -> None:
+    """Write the 3-D view page of every run that has a robot and two samples or more, and
+    plotly.js once (:mod:`armlab.viz.view_pages`); ``exp.view`` names its page."""
+    from armlab.viz.view3d import view3d_spec
+
+    write_assets(out_dir, script)
+    for exp in planned:
+        if exp.robot is None or exp.result is None or len(exp.result.t) < 2:
+            continue
+        try:
+            spec = view3d_spec(exp.result, robot=exp.robot, plane=exp.plane, max_frames=VIEW_FRAMES,
+                               title=f"{exp.name}: {exp.robot.name} in Σ_base")
+        except ValueError:  # a run with no finite sample has nothing to draw
+            continue
+        exp.view = write_view_page(out_dir, exp.name, spec, f"{exp.name} — 3-D view", script[0])
 
 
 def evaluate(exp: Experiment) -> Experiment:
@@ -409,7 +437,7 @@ def _run_all(planned: list[Experiment], progress: Progress, workers: int, main_j
 
 def build_report(robot: str | Robot = "prp", out_dir: str | Path = "report", *, quick: bool = False,
                  show_progress: bool = True, experiments=None, animation: bool = True,
-                 jobs: int | None = None, first=None, sweeps=()) -> Path:
+                 jobs: int | None = None, first=None, sweeps=(), views: bool = True) -> Path:
     """Write ``<out_dir>/report.html`` for ``robot`` and return its path.
 
     Parameters
@@ -425,6 +453,8 @@ def build_report(robot: str | Robot = "prp", out_dir: str | Path = "report", *, 
     first : optional callable run here first, once the worker processes are starting (the
         demo prints its A1 tables meanwhile)
     sweeps : output folders of ``armlab sweep`` runs, each added as a page of its own
+    views : an interactive 3-D view of every run, a page of its own in ``<out_dir>/view3d``
+        framed by the report (needs plotly; without it the report says they are left out)
     """
     started = time.perf_counter()
     if not isinstance(robot, Robot):
@@ -439,7 +469,8 @@ def build_report(robot: str | Robot = "prp", out_dir: str | Path = "report", *, 
                else discover(robot, quick=quick, course_dir=out_dir / "course"))
     if quick and experiments is None:
         planned = first_of_each_assignment(planned)
-    progress = Progress(len(planned) + 7, enabled=show_progress)
+    script = plotly_js() if views else None
+    progress = Progress(len(planned) + 7 + (script is not None), enabled=show_progress)
 
     def here():
         if first is not None:
@@ -474,6 +505,10 @@ def build_report(robot: str | Robot = "prp", out_dir: str | Path = "report", *, 
     # imports and kernels, ~10 s) would cost more than the runs it takes over.
     workers = (1 if quick else max(1, min(2, os.cpu_count() or 1))) if jobs is None else jobs
     drawings, derivations = _run_all(planned, progress, workers, here, start_animation)
+    if script is not None:
+        progress.step("3-D views")
+        _write_views(planned, out_dir, script)
+        progress.advance()
     bodies: dict[int, list[str]] = {}
     for exp in planned:
         bodies.setdefault(exp.assignment, []).append(_experiment_html(exp))
@@ -533,7 +568,10 @@ def build_report(robot: str | Robot = "prp", out_dir: str | Path = "report", *, 
     subtitle = [f"robot {robot.name}: {robot.description}" if robot.description else f"robot {robot.name}",
                 f"{len(planned)} scenario runs{' (quick settings)' if quick else ''}; "
                 f"built in {elapsed:.0f} s by armlab report"]
-    page = html.document(f"armlab report — {robot.name}", subtitle, nav, "".join(sections))
+    if views and script is None:
+        subtitle.append(NO_VIEWS)
+    page = html.document(f"armlab report — {robot.name}", subtitle, nav, "".join(sections),
+                         frames=any(exp.view for exp in planned))
     path = out_dir / "report.html"
     write_text(path, page)  # atomic: a killed or failed build keeps the previous report
     progress.close(f"wrote {path} ({path.stat().st_size / 1e6:.1f} MB)")

@@ -5,12 +5,18 @@ it with the mouse, zoom, hover); :func:`write_view3d` writes it as one HTML file
 plotly.js inside (``include_plotlyjs=True``), so it opens without a network.
 
 The scene is the one :mod:`armlab.viz.drawing` draws, in Σ_base (``frame="base"``) or Σ_0:
-each link as the primitive shape its inertia was computed from (box, cylinder, sphere at the
-centre of mass), or a segment between frame origins where it has none; the kinematic chain;
-every frame Σ_base, Σ_0 … Σ_e as an x/y/z = red/green/blue triad with its name; the
-environment's surface (a wall, or the plane of a spring) as a translucent square.  A
+each link as the meshes of its robot file where it has some (URDF ``<visual>`` meshes, thinned
+to a vertex budget by :mod:`armlab.viz.meshes`; parts fixed to the ground drawn still), else
+as the primitive shape its inertia was computed from (box, cylinder, sphere at the centre of
+mass), else as a segment between frame origins; the kinematic chain; every frame Σ_base,
+Σ_0 … Σ_e as an x/y/z = red/green/blue triad with its name; the environment's surface (a
+wall, or the plane of a spring) as a translucent square.  A
 :class:`~armlab.simulation.results.SimulationResult` adds its motion as animation frames with
 play/pause buttons and a time slider.
+
+:func:`view3d_spec` builds the same figure as plain data (plotly's figure schema, coordinates
+as NumPy arrays) without importing plotly: the report serialises it for pages that load
+plotly.js from a file of their own (:mod:`armlab.viz.view_pages`).
 
 Needs the optional extra ``viewer`` (``pip install 'armlab[viewer]'``: plotly).
 """
@@ -36,6 +42,7 @@ from armlab.viz.drawing import (
     plane_axes,
     plane_covering,
 )
+from armlab.viz.meshes import MAX_VERTICES, body_meshes
 
 MAX_FRAMES = 120
 """Animation frames of a recorded run (resampled evenly in time): enough for a smooth slider,
@@ -90,14 +97,19 @@ def _triangles(faces) -> tuple[np.ndarray, np.ndarray]:
 class _Scene:
     """The traces of one robot, and their coordinates at a configuration q."""
 
-    def __init__(self, robot, frame: str, show_frames: bool):
+    def __init__(self, robot, frame: str, show_frames: bool, max_vertices: int | None):
         if frame not in FRAMES:
             raise ValueError(f"frame must be 'base' or '0', got {frame!r}")
         self.robot, self.frame, self.show_frames = robot, frame, show_frames
-        self.solids = link_solids(robot)
-        self.meshes = [None if solid is None else _triangles(solid.faces) for solid in self.solids]
+        files = body_meshes(robot, max_vertices) if robot.visuals else {}
+        solids = link_solids(robot)
+        # Link i: its file's meshes (in Σ_{i+1}), else its inertia shape, else None (a segment).
+        self.meshes = [files[i + 1] if i + 1 in files else None if solid is None else _triangles(solid.faces)
+                       for i, solid in enumerate(solids)]
+        self.from_file = [i + 1 in files for i in range(robot.n)]
         self.axis_length = 0.15 * characteristic_length(robot)
         self.T_view_0 = robot.base if frame == "base" else np.eye(4)
+        self.ground = None if 0 not in files else (_transform_points(self.T_view_0, files[0][0]), files[0][1])
 
     def moving(self, q) -> list[dict]:
         """Coordinates of every moving trace at q, in trace order: chain, links, x/y/z triads,
@@ -126,34 +138,39 @@ class _Scene:
             out.append(dict(x=origins[:, 0], y=origins[:, 1], z=origins[:, 2]))
         return out
 
-    def traces(self, q, go) -> list:
+    def traces(self, q) -> list[dict]:
+        """The moving traces at q (plotly trace dicts), in the order of :meth:`moving`."""
         coordinates = self.moving(q)
-        traces = [go.Scatter3d(**coordinates[0], mode="lines", name="chain", hoverinfo="skip",
-                               line=dict(color="#595959", width=3, dash="dash"))]
+        traces = [dict(type="scatter3d", **coordinates[0], mode="lines", name="chain", hoverinfo="skip",
+                       line=dict(color="#595959", width=3, dash="dash"))]
         for i, (mesh, link) in enumerate(zip(self.meshes, self.robot.links, strict=True)):
             colour = LINK_COLOURS[i % len(LINK_COLOURS)]
             if mesh is None:
-                traces.append(go.Scatter3d(**coordinates[1 + i], mode="lines", name=link.name,
-                                           line=dict(color=colour, width=10)))
+                traces.append(dict(type="scatter3d", **coordinates[1 + i], mode="lines", name=link.name,
+                                   line=dict(color=colour, width=10)))
             else:
-                triangles = mesh[1]
-                traces.append(go.Mesh3d(**coordinates[1 + i], i=triangles[:, 0], j=triangles[:, 1],
-                                        k=triangles[:, 2], color=colour, opacity=0.75, name=link.name,
-                                        flatshading=True, hovertext=link.name, hoverinfo="text",
-                                        showlegend=True))
+                traces.append(_mesh_trace(coordinates[1 + i], mesh[1], colour, link.name,
+                                          from_file=self.from_file[i]))
         if self.show_frames:
             names = list(frame_poses(self.robot, q, self.frame))
             for k, (axis, colour) in enumerate(zip("xyz", AXIS_COLOURS, strict=True)):
-                traces.append(go.Scatter3d(**coordinates[1 + len(self.meshes) + k], mode="lines",
-                                           name=f"{axis} axes", hoverinfo="skip",
-                                           line=dict(color=colour, width=5)))
+                traces.append(dict(type="scatter3d", **coordinates[1 + len(self.meshes) + k], mode="lines",
+                                   name=f"{axis} axes", hoverinfo="skip", line=dict(color=colour, width=5)))
             labels = ["Σ_" + " = Σ_".join(name.split("=")) for name in names]
-            traces.append(go.Scatter3d(**coordinates[-1], mode="text", text=labels, name="frames",
-                                       textposition="bottom center", hoverinfo="text"))
+            traces.append(dict(type="scatter3d", **coordinates[-1], mode="text", text=labels, name="frames",
+                               textposition="bottom center", hoverinfo="text"))
         return traces
 
+    def still(self) -> list[dict]:
+        """The traces that never move: the file's meshes of parts fixed to the ground."""
+        if self.ground is None:
+            return []
+        points, triangles = self.ground
+        return [_mesh_trace(dict(x=points[:, 0], y=points[:, 1], z=points[:, 2]), triangles, "#b4b4b4",
+                            "ground parts", from_file=True)]
+
     def extent(self, qs) -> tuple[np.ndarray, np.ndarray]:
-        points = []
+        points = [] if self.ground is None else [self.ground[0]]
         for q in qs:
             for trace in self.moving(q):
                 points.append(np.column_stack([trace["x"], trace["y"], trace["z"]]))
@@ -162,27 +179,52 @@ class _Scene:
         return points.min(axis=0), points.max(axis=0)
 
 
-def _plane_trace(plane: Plane, T_view_0, go):
+def _mesh_trace(coordinates: dict, triangles: np.ndarray, colour: str, name: str, *, from_file: bool) -> dict:
+    """A Mesh3d trace: a file's mesh opaque and smoothly lit (its facets are many and small),
+    an inertia shape translucent with flat facets (the frames inside it stay visible)."""
+    return dict(type="mesh3d", **coordinates, i=triangles[:, 0], j=triangles[:, 1], k=triangles[:, 2],
+                color=colour, opacity=1.0 if from_file else 0.75, flatshading=not from_file, name=name,
+                hovertext=name, hoverinfo="text", showlegend=True)
+
+
+def _plane_trace(plane: Plane, T_view_0) -> dict:
     u, v = plane_axes(plane)
     s = plane.half_size
     signs = ((-1, -1), (1, -1), (1, 1), (-1, 1))
     corners = np.array([np.asarray(plane.point) + s * (a * u + b * v) for a, b in signs])
     corners = _transform_points(T_view_0, corners)
-    return go.Mesh3d(x=corners[:, 0], y=corners[:, 1], z=corners[:, 2], i=[0, 0], j=[1, 2], k=[2, 3],
-                     color="#8c8c8c", opacity=0.3, name="environment", hoverinfo="name")
+    return dict(type="mesh3d", x=corners[:, 0], y=corners[:, 1], z=corners[:, 2], i=[0, 0], j=[1, 2],
+                k=[2, 3], color="#8c8c8c", opacity=0.3, name="environment", hoverinfo="name")
 
 
 def view3d(subject, q=None, *, robot=None, frame: str = "base", plane: Plane | None = None,
-           show_frames: bool = True, max_frames: int = MAX_FRAMES, title: str | None = None):
+           show_frames: bool = True, max_frames: int = MAX_FRAMES, max_vertices: int | None = MAX_VERTICES,
+           title: str | None = None):
     """An interactive 3-D figure of a robot at ``q`` (``subject`` a Robot) or of a recorded
     run with play/pause and a time slider (``subject`` a SimulationResult; its robot is
     ``robot`` or, by default, the bundled robot its ``meta["plant"]`` names).
 
     ``plane`` (given in Σ_0) is drawn as the environment's surface; for a result it defaults
-    to the surface of the run's environment, as the report draws it.  Returns a
-    ``plotly.graph_objects.Figure`` (displayed in a notebook with plotly.js inline: offline).
+    to the surface of the run's environment, as the report draws it.  The meshes of the
+    robot's file keep at most ``max_vertices`` vertices together (None: every vertex).
+    Returns a ``plotly.graph_objects.Figure`` (displayed in a notebook with plotly.js inline:
+    offline).
     """
     go = _plotly()
+    spec = view3d_spec(subject, q, robot=robot, frame=frame, plane=plane, show_frames=show_frames,
+                       max_frames=max_frames, max_vertices=max_vertices, title=title)
+    return _figure_class(go)(data=spec["data"], layout=spec["layout"], frames=spec["frames"])
+
+
+def view3d_spec(subject, q=None, *, robot=None, frame: str = "base", plane: Plane | None = None,
+                show_frames: bool = True, max_frames: int = MAX_FRAMES,
+                max_vertices: int | None = MAX_VERTICES, title: str | None = None) -> dict:
+    """The figure of :func:`view3d` as plain data: ``{"data": [...], "layout": {...},
+    "frames": [...]}`` in plotly's figure schema, coordinates as NumPy arrays; no plotly needed.
+
+    A run's samples where t or q is not finite (the tail of a run that diverged) are left out;
+    a ``ValueError`` says so when none is left.
+    """
     result = None
     if hasattr(subject, "joints"):
         robot = subject
@@ -193,58 +235,61 @@ def view3d(subject, q=None, *, robot=None, frame: str = "base", plane: Plane | N
             robot = load_robot(str(result.meta.get("plant", "")))
         if result.q.shape[1] != robot.n:
             raise ValueError(f"robot: {robot.name} has {robot.n} joints, the result {result.q.shape[1]}")
-        times, qs = resample(result.t, result.q, min(max_frames, len(result)))
+        finite = np.all(np.isfinite(result.q), axis=1) & np.isfinite(result.t)
+        if not finite.any():
+            raise ValueError("result: no sample with finite time and joint values to draw")
+        times, qs = resample(result.t[finite], result.q[finite], min(max_frames, int(finite.sum())))
         if plane is None:
             plane = _result_plane(result)
-    scene = _Scene(robot, frame, show_frames)
-    traces = scene.traces(qs[0], go)
+    scene = _Scene(robot, frame, show_frames, max_vertices)
+    traces = scene.traces(qs[0])
     moving = list(range(len(traces)))
-    if plane is not None:
-        tips = np.array([link_frames(robot, qk, frame="0")[-1][:3, 3] for qk in qs])
-        traces.append(_plane_trace(plane_covering(plane, tips), scene.T_view_0, go))
+    traces += scene.still()
     low, high = scene.extent(qs)
     if plane is not None:
-        corners = traces[-1]
-        points = np.column_stack([corners.x, corners.y, corners.z])
+        tips = np.array([link_frames(robot, qk, frame="0")[-1][:3, 3] for qk in qs])
+        corners = _plane_trace(plane_covering(plane, tips), scene.T_view_0)
+        traces.append(corners)
+        points = np.column_stack([corners["x"], corners["y"], corners["z"]])
         low, high = np.minimum(low, points.min(axis=0)), np.maximum(high, points.max(axis=0))
     centre, half = (low + high) / 2.0, max(float(np.max(high - low)) / 2.0, 1e-3) * 1.1
     axis = {"base": "base", "0": "0"}[frame]
-    scene_layout = dict(aspectmode="cube", **{
-        f"{name}axis": dict(range=[centre[k] - half, centre[k] + half], title=f"{name}_{axis} [m]")
+    scene_layout = dict(aspectmode="cube", camera=dict(eye=dict(x=1.5, y=-1.3, z=0.9)), **{
+        f"{name}axis": dict(range=[centre[k] - half, centre[k] + half], title=dict(text=f"{name}_{axis} [m]"))
         for k, name in enumerate("xyz")})
-    figure = _figure_class(go)(data=traces)
     joint_text = ", ".join(j.name for j in robot.joints)
     heading = title or f"{robot.name} in Σ_{axis}" + (" — recorded motion" if result else "")
-    figure.update_layout(title=heading, scene=scene_layout, margin=dict(l=0, r=0, t=40, b=0), showlegend=True,
-                         legend=dict(itemsizing="constant"),
-                         scene_camera=dict(eye=dict(x=1.5, y=-1.3, z=0.9)))
+    # A run's buttons and time slider sit under the scene, in its bottom margin.
+    layout = dict(title=dict(text=heading), scene=scene_layout,
+                  margin=dict(l=0, r=0, t=40, b=110 if result else 0),
+                  showlegend=True, legend=dict(itemsizing="constant"))
+    spec = {"data": traces, "layout": layout, "frames": []}
     if result is None:
-        return figure
-    frames = []
+        return spec
     for k, (time, qk) in enumerate(zip(times, qs, strict=True)):
-        # The moving traces only (the plane, last, stays): ``traces`` names their indices.
-        data = [dict(type=figure.data[index].type, **coordinates)
+        # The moving traces only (ground parts and plane stay): ``moving`` names their indices.
+        data = [dict(type=traces[index]["type"], **coordinates)
                 for index, coordinates in zip(moving, scene.moving(qk), strict=True)]
         values = ", ".join(f"{v:.3g}" for v in qk)
         caption = f"{robot.name}: t = {time:.2f} s  ({joint_text}) = ({values})"
-        frames.append(go.Frame(data=data, traces=moving, name=str(k), layout=dict(title=caption)))
-    figure.frames = frames
+        spec["frames"].append(dict(data=data, traces=moving, name=str(k),
+                                   layout=dict(title=dict(text=caption))))
     step = 1000.0 * float(times[-1] - times[0]) / max(len(times) - 1, 1)   # real time [ms]
     play = dict(frame=dict(duration=step, redraw=True), fromcurrent=True, transition=dict(duration=0),
                 mode="immediate")
     pause = dict(frame=dict(duration=0, redraw=False), mode="immediate", transition=dict(duration=0))
-    figure.update_layout(
+    layout.update(
         updatemenus=[dict(type="buttons", direction="left", x=0.0, y=0.0, xanchor="left", yanchor="top",
                           pad=dict(t=30, r=10), showactive=False,
                           buttons=[dict(label="▶ play", method="animate", args=[None, play]),
                                    dict(label="❚❚ pause", method="animate", args=[[None], pause])])],
-        sliders=[dict(active=0, x=0.18, y=0.0, len=0.8, xanchor="left", yanchor="top", pad=dict(t=20),
+        sliders=[dict(active=0, x=0.24, y=0.0, len=0.74, xanchor="left", yanchor="top", pad=dict(t=20),
                       currentvalue=dict(prefix="t = ", suffix=" s"),
                       steps=[dict(label=f"{time:.2f}", method="animate",
                                   args=[[str(k)], dict(frame=dict(duration=0, redraw=True), mode="immediate",
                                                        transition=dict(duration=0))])
                              for k, time in enumerate(times)])])
-    return figure
+    return spec
 
 
 def _result_plane(result) -> Plane | None:
@@ -267,11 +312,14 @@ def _result_plane(result) -> Plane | None:
 
 def write_view3d(subject, path, **options) -> Path:
     """Write :func:`view3d` of ``subject`` (or a Figure it made) to ``path`` as one HTML file
-    with plotly.js inside: it opens offline, no network request."""
+    with plotly.js inside: it opens offline, no network request.  Written atomically
+    (:mod:`armlab.files`): a failed write keeps the previous file."""
+    from armlab.files import write_text
+
     go = _plotly()
     figure = subject if isinstance(subject, go.Figure) else view3d(subject, **options)
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    figure.write_html(path, include_plotlyjs=True, full_html=True, auto_play=False,
-                      config={"displaylogo": False})
+    write_text(path, figure.to_html(include_plotlyjs=True, full_html=True, auto_play=False,
+                                    config={"displaylogo": False}))
     return path
