@@ -5,9 +5,11 @@ assignments (the same format as the bundled ones, so each can be read, edited an
 ``armlab run FILE``), choosing what the PRP's files fix by hand:
 
 * **poses** — a start q_s and a goal q_g drawn (seeded) from the central half of every joint's
-  range, the pair whose position Jacobian J_P (Σ_0) is best conditioned along the straight
-  Cartesian line between them (:func:`armlab.references.task.path_singular_values`), q_s at
-  least 3 cm above q_g along the surface normal;
+  range, 5–30 cm apart, q_s at least 3 cm above q_g along the surface normal, the pair whose
+  position Jacobian J_P (Σ_0) is best conditioned along the joint-space line between them
+  (an arm of fewer than three joints, which gets no task-space experiment, may take a
+  singular pair); the orientation a pose carries is written in the Euler convention ("zyz"
+  or "rpy") whose singularity is farther along that line (:func:`euler_convention`);
 * **gains from the dynamics** — laws that cancel the dynamics (A7, A10, A12–A15) take
   ω_n = 5 rad/s, ζ = 1 per unit mass (K_P = ω_n², K_D = 2ζω_n, the seed's numbers); PD laws
   (A6, A9, A11) scale them by the inertia they act on: K_P,i = B_ii(q_g) ω_n² in joint space
@@ -23,6 +25,18 @@ assignments (the same format as the bundled ones, so each can be read, edited an
   damped by K_D, gains about (ω_n/2) B_P of damping (ζ = 1.25), whose slow pole is also ω_n/2.
   With K_q = c B, the slower of the two rates, min(c, ω_n(1 + u − √((1 + u)² − 1))) with
   u = c/(2ω_n), is largest at c = ω_n/2 (damping less leaves the self-motion slow, more the task);
+* **the step** — 1 ms, or 1 ms / k (k = 2^a 5^b) for a PD law whose loop linearised at rest,
+  B δq̈ + (F_v + D) δq̇ + K δq = 0, has a mode |λ| > 1000 1/s on the line from q_s to q_g, so
+  that |λ| dt ≤ 1, well inside RK4's stability region (to 2.78 on the negative real axis):
+  the PD laws leave the plant's viscous friction F_v and the raised gains on light wrists
+  (the xArm7's B_77 = 1.4·10⁻⁴ kg·m² with F_v = 2 N·m·s/rad: |λ| ≈ 2·10⁴ 1/s, dt = 50 µs),
+  where the laws that cancel the dynamics (A7, A10, A12–A15) leave 5–10 rad/s;
+* **durations** — A9 and A11 run 10 s (their slowest task mode decays at about ω_n/2), the
+  others 5–10 s; A12 starts at rest on the surface (q_g): its spring also pulls, and from q_s
+  it would yank the end effector at 300–3000 m/s²; on an arm of n > 3 joints A9 and A11 run
+  with the joint stops (``joint_limits = "stop"``): the self-motion, damped by K_q and held by
+  no stiffness, swings on the transient's reaction torques (the so100's 20 g jaw, whose axis
+  passes through the end point, drifts more than 2.6 rad, past its range, without them);
 * **the environment** — a plane through the end effector's position at q_g, normal to gravity
   (a table under the tool; normal n = −g/|g|, pointing into free space), pushed 1 cm into by
   the compliance and impedance references, pressed on with f_d = −0.5 n N by the force laws;
@@ -45,6 +59,7 @@ from pathlib import Path
 import numpy as np
 
 from armlab.dynamics import gravity_torque, inertia_matrix
+from armlab.errors import InputError
 from armlab.files import write_text
 from armlab.kinematics import forward_kinematics, geometric_jacobian
 from armlab.model.robot import Robot
@@ -59,6 +74,10 @@ FORCE = 0.5           # [N] |f_d| of A14–A15 (the seed's)
 DAMPING = 1e-3        # damped least squares of J_P on arms of n ≠ 3 joints
 DEAD_BAND = 1e-3      # [rad | m] PD laws leave |q̃_i| ≤ F_s,i / K_P,i under Coulomb friction F_s
 SEED = 20261202
+DT = 1e-3             # [s] the RK4 step of every experiment whose loop allows it
+# |λ| dt of the fastest mode of a PD loop: RK4 is stable to 2.785 on the negative real axis and
+# 2.83 on the imaginary one; 1 leaves a factor 2.8 for what the linearisation leaves out.
+RK4_REACH = 1.0
 
 
 def toml_string(text: str) -> str:
@@ -124,14 +143,19 @@ def _sigma_min(robot, q) -> float:
 
 
 def choose_poses(robot: Robot, normal: np.ndarray, *, candidates: int = 400, seed: int = SEED):
-    """(q_s, q_g): the pair of the module docstring, or raise ``ValueError`` saying why none."""
+    """(q_s, q_g): the pair of the module docstring, or raise ``InputError`` saying why none.
+
+    An arm of fewer than three joints gets the joint-space experiments only, which invert no
+    Jacobian: its pair may be singular (the zoo's double pendulum ends on its second joint's
+    axis, so its J_P has rank 1 everywhere); the best conditioned admissible pair is still
+    preferred."""
     lo, hi = _box(robot)
     rng = np.random.default_rng(seed)
     qs = lo + (0.25 + 0.5 * rng.random((candidates, robot.n))) * (hi - lo)
     sigma = np.array([_sigma_min(robot, q) for q in qs])
     positions = np.array([_position(robot, q) for q in qs])
     order = np.argsort(-sigma)[: max(20, candidates // 10)]
-    best, best_score = None, 0.0
+    best, best_score = None, 0.0 if robot.n >= 3 else -math.inf
     for g in order:
         height = (positions - positions[g]) @ normal
         distance = np.linalg.norm(positions - positions[g], axis=1)
@@ -143,9 +167,49 @@ def choose_poses(robot: Robot, normal: np.ndarray, *, candidates: int = 400, see
             if score > best_score:
                 best, best_score = (qs[s], qs[g]), score
     if best is None:
-        raise ValueError("no start and goal 5–30 cm apart with the start 3 cm above the goal were "
-                         "found in the central half of the joint ranges")
+        regular = " with a regular J_P along the way" if robot.n >= 3 else ""
+        raise InputError(f"{robot.name}: no start and goal 5–30 cm apart with the start 3 cm above "
+                         f"the goal{regular} were found in the central half of the joint ranges")
     return best
+
+
+def euler_convention(rotations) -> str:
+    """The supported Euler convention (``spatial.EULER_CONVENTIONS``) farther from its
+    representation singularity over ``rotations``: ZYZ is singular where
+    sin ϑ = hypot(r13, r23) = 0 (the tool's z axis along Σ_0's), RPY where
+    cos ϑ = hypot(r11, r21) = 0 (the tool's x axis along Σ_0's z); a tie keeps the seed's ZYZ."""
+    zyz = min(math.hypot(R[0, 2], R[1, 2]) for R in rotations)
+    rpy = min(math.hypot(R[0, 0], R[1, 0]) for R in rotations)
+    return "zyz" if zyz >= rpy else "rpy"
+
+
+def fastest_mode(robot: Robot, path, loop) -> float:
+    """The largest |λ| [1/s] over ``path`` (poses q) of the PD loop linearised at rest,
+
+        B(q) δq̈ + (F_v + D(q)) δq̇ + K(q) δq = 0,   (K, D) = ``loop(q)`` (n × n),
+
+    λ the eigenvalues of [[0, I], [−B⁻¹K, −B⁻¹(F_v + D)]].  Left out: ∂g/∂q (below K_P/1.5 by
+    the gain rule, or compensated), C q̇ (zero at rest) and Coulomb friction (not a linear mode)."""
+    n, viscous, fastest = robot.n, np.diag(robot.arrays.viscous), 0.0
+    for q in path:
+        K, D = loop(q)
+        B = inertia_matrix(robot, q)
+        A = np.block([[np.zeros((n, n)), np.eye(n)],
+                      [-np.linalg.solve(B, K), -np.linalg.solve(B, viscous + D)]])
+        fastest = max(fastest, float(np.abs(np.linalg.eigvals(A)).max()))
+    return fastest
+
+
+def time_step(fastest: float) -> float:
+    """DT / k with ``fastest`` · dt ≤ RK4_REACH, k ≥ 1 the smallest of the form 2^a 5^b: dt is a
+    short decimal (0.5, 0.25, 0.2, 0.1 … ms) and every t_final, a whole number of
+    milliseconds, stays a whole number of steps."""
+    need = fastest * DT / RK4_REACH
+    if not math.isfinite(need):
+        raise InputError(f"the fastest mode of a PD loop is not finite ({fastest!r} 1/s): "
+                         "no step can hold it")
+    k = min(2**a * 5**b for a in range(40) for b in range(20) if 2**a * 5**b >= need)
+    return DT / k
 
 
 def _surface(stiffness: float, normal: np.ndarray) -> list[list[float]]:
@@ -164,6 +228,7 @@ class _Plan:
         norm = np.linalg.norm(gravity)
         self.normal = -gravity / norm if norm > 0 else np.array([0.0, 0.0, 1.0])
         self.q_s, self.q_g = choose_poses(robot, self.normal, seed=seed)
+        self.path = [self.q_s + u * (self.q_g - self.q_s) for u in np.linspace(0.0, 1.0, 11)]
         self.B = inertia_matrix(robot, self.q_g)
         self.coulomb = np.asarray(robot.arrays.coulomb, dtype=float)
         # K_P,i above 1.5 α, the gravity-gradient bound (T2): option 3 (g(q_des)) is then
@@ -178,10 +243,20 @@ class _Plan:
         self.files: dict[str, str] = {}
         self.skipped: list[str] = []
 
-    def add(self, name, assignment, title, description, simulation, controller, environment=None):
+    def add(self, name, assignment, title, description, simulation, controller, environment=None,
+            loop=None):
+        """One scenario file; ``loop(q)`` → (K, D) of a PD law sets its step (:func:`time_step`)."""
+        dt = DT
+        if loop is not None:
+            fastest = fastest_mode(self.robot, self.path, loop)
+            dt = time_step(fastest)
+            if dt < DT:
+                description += (f"; dt = {dt * 1e3:.4g} ms, so that the fastest mode of the loop "
+                                f"linearised at rest, |λ| = {fastest:.4g} 1/s, has |λ| dt ≤ {RK4_REACH:g} "
+                                "(RK4 is stable to 2.78)")
         document = {"title": title, "assignment": assignment,
                     "description": f"{description} ({self.where})", "plant": self.reference,
-                    "simulation": {"dt": 0.001, **simulation}, "controller": controller}
+                    "simulation": {"dt": dt, **simulation}, "controller": controller}
         if self.tip:
             document["plant_tip"] = self.tip
         if environment is not None:
@@ -200,7 +275,8 @@ class _Plan:
                      + ("; without compensation it settles where K_P q̃ = g(q)" if option == "none" else ""),
                      {"t_final": 6.0, "q0": q_s},
                      {"type": "joint_pd_gravity", "compensation": option, "kp": self.joint_kp,
-                      "kd": self.joint_kd, "reference": goal})
+                      "kd": self.joint_kd, "reference": goal},
+                     loop=lambda q: (np.diag(self.joint_kp), np.diag(self.joint_kd)))
         via = {"type": "via_points", "times": [0.5, 2.5], "values": [q_s, q_g]}
         self.add("a07_id_via_points", "A7", "A7 — inverse dynamics (computed torque) from start to goal",
                  "τ = B y + n with ω_n = 5 rad/s, ζ = 1: a rest-to-rest quintic tracked exactly",
@@ -235,11 +311,11 @@ class _Plan:
         """A9–A12, A14, A15 on the position task."""
         robot, q_s, q_g, n, normal = self.robot, self.q_s, self.q_g, self.robot.n, self.normal
         p_s, p_g = _position(robot, q_s), _position(robot, q_g)
-        R_g = forward_kinematics(robot, q_g, frame="0")[:3, :3]
         # Orientation is not part of the task, but a pose carries one: the goal's own, in the
-        # Euler convention farther from its singularity there (ZYZ: |r33| = 1, XYZ: |r13| = 1).
-        euler = "zyz" if abs(R_g[2, 2]) < abs(R_g[0, 2]) else "xyz"
-        angles = euler_from_matrix(R_g, euler).tolist()
+        # convention farther from its singularity along the way (the run passes through the
+        # orientations between the start's and the goal's).
+        euler = euler_convention([forward_kinematics(robot, q, frame="0")[:3, :3] for q in self.path])
+        angles = euler_from_matrix(forward_kinematics(robot, q_g, frame="0")[:3, :3], euler).tolist()
 
         def poses(times, *positions):
             return {"times": times, "poses": [[*p, *angles] for p in positions], "euler": euler}
@@ -255,14 +331,30 @@ class _Plan:
         self_motion = {} if n <= 3 else {"joint_damping": joint_damping}
         law = "τ = g + J_Pᵀ(K_P p̃ − K_D J_P q̇)" + ("" if n <= 3 else " − K_q q̇")
         said = "" if n <= 3 else (f"; K_q = (ω_n/2) B_ii(q_g) = {np.round(joint_damping, 4).tolist()} "
-                                  "damps the self-motion the 3-D task leaves free")
+                                  "damps the self-motion the 3-D task leaves free, the joint stops keep "
+                                  "it in range")
         task = {"frame": "base", "task": [0, 1, 2], "euler": euler, "angle_reference": angles}
+        kq = np.diag(joint_damping) if n > 3 else np.zeros((n, n))
+
+        def task_loop(stiffness):
+            """(K, D) in joint space of the task-space PD laws: K_P (and the surface) and K_D
+            act through J_P, K_q on the joints."""
+            def loop(q):
+                J = geometric_jacobian(robot, q, frame="0")[:3]
+                return J.T @ stiffness @ J, kd * J.T @ J + kq
+            return loop
+        # The PD laws' slowest task mode decays at about ω_n/2 (measured 1.9–2.5 1/s): 10 s bring
+        # the 5–30 cm from start to goal below 10⁻⁸ m where 6 s left up to 10⁻⁵ m.
+        # The self-motion swings on the reaction torques of the transient, damped by K_q alone (no
+        # stiffness holds it): the arm's joint stops (S4) keep it in range, as on the real arm
+        # (the so100's 20 g jaw, its J_P column zero, drifts more than 2.6 rad without them).
+        settle = {"t_final": 10.0, "q0": q_s, **({} if n <= 3 else {"joint_limits": "stop"})}
         start = {"t_final": 6.0, "q0": q_s}
         self.add("a09_pd_goal", "A9", "A9 — operational-space PD with gravity compensation to the goal",
                  f"{law}, K_P = {kp:.4g} N/m (λ_max(B_P) ω_n², or what holds the "
-                 f"arm's Coulomb friction to 1 mm){said}", start,
+                 f"arm's Coulomb friction to 1 mm){said}", settle,
                  {"type": "operational_pd", **task, "kp": kp, "kd": kd, **self_motion,
-                  "reference": poses([0.0], p_g)})
+                  "reference": poses([0.0], p_g)}, loop=task_loop(kp * np.eye(3)))
         self.add("a10_id_via_poses", "A10", "A10 — operational-space inverse dynamics along a straight line",
                  "Rest-to-rest quintic along the straight line from start to goal, tracked exactly "
                  "(ω_n = 5 rad/s, ζ = 1)" + ("" if n == 3 else "; damped least squares, λ = 1e-3"),
@@ -275,10 +367,14 @@ class _Plan:
                  f"PD + g towards a point 1 cm inside a surface as stiff as the controller (K = K_P = "
                  f"{kp:.4g} N/m along the normal): it settles half-way, at "
                  f"x_e = (K_P + K)⁻¹(K_P x_d + K x_r){said}",
-                 start, {"type": "compliance", **task, "kp": kp, "kd": kd, **self_motion, "reference": into},
-                 {"type": "spring", "stiffness": _surface(kp, normal), "rest_position": p_g})
+                 settle, {"type": "compliance", **task, "kp": kp, "kd": kd, **self_motion, "reference": into},
+                 {"type": "spring", "stiffness": _surface(kp, normal), "rest_position": p_g},
+                 loop=task_loop(kp * (np.eye(3) + np.outer(normal, normal))))
+        # A12 starts on the surface: the spring also pulls (the seed's model), and from q_s, 3–30 cm
+        # above it, K = 10⁴ N/m would yank the end effector at 300–3000 m/s² (M_d = 1 kg).
         self.add("a12_impedance_regulation", "A12", "A12 — impedance control against the surface",
-                 "M_d p̃̈ + K_D p̃̇ + K_P p̃ = h_A with M_d = 1 kg, K_P = 25 N/m, K_D = 10 N·s/m", start,
+                 "M_d p̃̈ + K_D p̃̇ + K_P p̃ = h_A with M_d = 1 kg, K_P = 25 N/m, K_D = 10 N·s/m, from rest "
+                 "on the surface (q_g)", {"t_final": 6.0, "q0": q_g},
                  {"type": "impedance", **task, "frame": "desired", **damping, "mass": 1.0,
                   "kp": OMEGA**2, "kd": 2 * OMEGA, "reference": into},
                  {"type": "spring", "stiffness": _surface(SPRING, normal), "rest_position": p_g})

@@ -50,7 +50,9 @@ def computed_torque_equilibrium(plant: Robot, controller, q_des) -> np.ndarray:
         return inertia_matrix(model, q) @ (kp @ e) + gravity_torque(bias, q) - gravity_torque(plant, q)
 
     solution = root(residual, np.zeros_like(q_des), tol=1e-14)
-    if not solution.success or np.abs(residual(solution.x)).max() > 1e-9:
+    # The residual decides, not ``success``: MINPACK's hybrd reports failure ("xtol too small")
+    # when it sits on the root to rounding but cannot shrink its step below tol = 1e-14.
+    if not np.all(np.isfinite(solution.x)) or np.abs(residual(solution.x)).max() > 1e-9:
         raise ArithmeticError(f"no rest equilibrium found near q_des ({solution.message})")
     return solution.x
 
