@@ -75,6 +75,7 @@ class Experiment:
     t_final: float | None = None
     kind: str = ""
     predicted: list = field(default_factory=list)   # rows of armlab.theory.predictions
+    quick: bool = False  # draw the main scopes alone (armlab.viz.layout.main_scopes)
 
     def run(self):
         """Run the scenario: ``runner()`` returns its SimulationResult."""
@@ -136,9 +137,10 @@ def environment_plane(environment) -> Plane | None:
     return Plane(tuple(rest), tuple(R_r @ vectors[:, int(np.argmax(values))]))
 
 
-def experiment_from_scenario(scenario, t_final: float | None = None) -> Experiment:
+def experiment_from_scenario(scenario, t_final: float | None = None, *, quick: bool = False) -> Experiment:
     """The :class:`Experiment` of a registered scenario (a name or a loaded Scenario), run up to
-    ``t_final`` [s] when given (shorter than the file's own t_final), else for its full length."""
+    ``t_final`` [s] when given (shorter than the file's own t_final), else for its full length;
+    ``quick`` draws its main scopes alone."""
     if isinstance(scenario, str):
         scenario = load_scenario(scenario)
     full = float(scenario.simulation["t_final"])
@@ -155,7 +157,7 @@ def experiment_from_scenario(scenario, t_final: float | None = None) -> Experime
                       description=scenario.description, parameters=parameters, robot=scenario.plant,
                       plane=environment_plane(scenario.environment), runner=runner,
                       scenario=_reloadable(scenario), t_final=short, kind=type(scenario.controller).__name__,
-                      predicted=predictions(scenario))
+                      predicted=predictions(scenario), quick=quick)
 
 
 def _reloadable(scenario) -> str:
@@ -167,13 +169,14 @@ def _reloadable(scenario) -> str:
 def discover(robot: Robot, *, quick: bool = False, course_dir=None) -> list[Experiment]:
     """Every registered scenario of ``robot`` as an :class:`Experiment` ready to run, by
     assignment and in the seed's order (:data:`SEED_ORDER`); ``quick`` shortens each run to
-    :data:`QUICK_T_FINAL`.  A robot without bundled scenarios gets the course generated for it
-    (:mod:`armlab.course`), written to ``course_dir`` (a temporary folder if None) so that each
-    experiment's file can be rerun."""
+    :data:`QUICK_T_FINAL` and draws its main scopes alone (:func:`armlab.viz.layout.main_scopes`).
+    A robot without bundled scenarios gets the course generated for it (:mod:`armlab.course`),
+    written to ``course_dir`` (a temporary folder if None) so that each experiment's file can
+    be rerun."""
     scenarios = [s for s in list_scenarios() if _belongs(s.plant.name, robot.name)]
     if not scenarios:
         scenarios = _course(robot, course_dir)
-    experiments = [experiment_from_scenario(scenario, QUICK_T_FINAL if quick else None)
+    experiments = [experiment_from_scenario(scenario, QUICK_T_FINAL if quick else None, quick=quick)
                    for scenario in scenarios]
     experiments.sort(key=lambda e: (e.assignment, *seed_rank(e.name)))
     return experiments
