@@ -75,6 +75,9 @@ class Experiment:
     t_final: float | None = None
     kind: str = ""
     predicted: list = field(default_factory=list)   # rows of armlab.theory.predictions
+    # () -> ``predicted``, called when the run is measured: a quick report runs a fifth of the
+    # scenarios it discovers, and the theory of the others would cost it SciPy's solvers.
+    predictor: object = None
     quick: bool = False  # draw the main scopes alone (armlab.viz.layout.main_scopes)
 
     def run(self):
@@ -157,7 +160,7 @@ def experiment_from_scenario(scenario, t_final: float | None = None, *, quick: b
                       description=scenario.description, parameters=parameters, robot=scenario.plant,
                       plane=environment_plane(scenario.environment), runner=runner,
                       scenario=_reloadable(scenario), t_final=short, kind=type(scenario.controller).__name__,
-                      predicted=predictions(scenario), quick=quick)
+                      predictor=lambda: predictions(scenario), quick=quick)
 
 
 def _reloadable(scenario) -> str:

@@ -292,9 +292,11 @@ def evaluate(exp: Experiment) -> Experiment:
             traceback.print_exc()
         exp.seconds = time.perf_counter() - started
     if exp.result is not None and len(exp.result.t) >= 2:
+        if exp.predictor is not None:
+            exp.predicted = exp.predictor()
         exp.metrics = measure(exp.result, exp.predicted)
         exp.figures = _scope_figures(exp)
-    exp.runner = None  # closures do not cross process boundaries
+    exp.runner = exp.predictor = None  # closures do not cross process boundaries
     return exp
 
 
