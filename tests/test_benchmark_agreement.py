@@ -18,6 +18,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
 
 import agreement  # noqa: E402
 import bench_dynamics  # noqa: E402
+import bench_report  # noqa: E402
 import bench_simulation  # noqa: E402
 import bench_startup  # noqa: E402
 import bench_symbolic  # noqa: E402
@@ -93,3 +94,19 @@ def test_the_random_arms_of_the_startup_benchmark_simulate(capsys):
         bench_startup.first_simulate(n, t_final=0.01, dynamics="numeric")
     finals = capsys.readouterr().out.split("\n")
     assert [len(json.loads(line)["q_final"]) for line in finals if line] == [3, 7]
+
+
+def test_the_report_benchmark_takes_a_quick_page_for_a_preview_only_if_it_is_one(tmp_path):
+    def page(name, sections, figures):
+        path = tmp_path / f"{name}.html"
+        path.write_text("".join(f'<section data-assignment="{s}">' for s in sections)
+                        + "".join(f'<figure data-figure="{f}">' for f in figures), encoding="utf-8")
+        return path
+
+    full = page("full", ["animation", "A1", "A6", "metrics"], ["fig-a6-positions", "fig-a6-torques"])
+    quick = page("quick", ["A1", "A6", "metrics"], ["fig-a6-positions"])
+    assert bench_report.check_preview(full, quick) == (2, 1)
+    with pytest.raises(RuntimeError, match="lacks the sections"):
+        bench_report.check_preview(full, page("short", ["A1", "metrics"], ["fig-a6-positions"]))
+    with pytest.raises(RuntimeError, match="does not"):
+        bench_report.check_preview(full, page("other", ["A1", "A6", "metrics"], ["fig-a6-q_err"]))

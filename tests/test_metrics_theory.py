@@ -68,6 +68,27 @@ def test_the_seeds_a7_mismatch_settles_at_its_equilibrium():
     assert seed.controller.bias_model.links[2].inertial.mass == 0.16    # Ĉ, ĝ wrong
 
 
+def test_an_exact_model_rests_at_zero_error_as_the_solver_finds():
+    """With B̂ = B and ĝ = g, q̃ = 0 solves (T1) exactly: the equilibrium is zero, bit for bit
+    what SciPy's solver returns from q̃ = 0, and the run settles there."""
+    from scipy.optimize import root
+
+    scenario = load_scenario("a7_id_regulation")
+    plant, controller = scenario.plant, scenario.controller
+    q_des = controller.reference.evaluate(10.0)[0]
+    predicted = computed_torque_equilibrium(plant, controller, q_des)
+    kp = np.asarray(controller.kp, dtype=float)
+
+    def residual(e):
+        q = q_des - e
+        return (armlab.inertia_matrix(controller.model, q) @ (kp @ e)
+                + armlab.gravity_torque(controller.model, q) - armlab.gravity_torque(plant, q))
+
+    solved = root(residual, np.zeros_like(q_des), tol=1e-14).x
+    assert np.array_equal(predicted, solved) and np.array_equal(np.signbit(predicted), np.signbit(solved))
+    np.testing.assert_allclose(scenario.run().signals["q_err"][-1], predicted, atol=1e-6)
+
+
 def test_compliance_equilibrium_matches_the_run():
     scenario = load_scenario("a11_compliance")
     rows = {p.quantity: p.values for p in predictions(scenario)}

@@ -138,6 +138,18 @@ def test_report_is_self_contained_and_complete(report):
             image.verify()
 
 
+def test_quick_report_draws_the_main_scopes_of_each_run_alone(report):
+    """--quick draws what each controller is for and nothing else: the joint tracking of the
+    joint-space laws (A6, A7), with the parameter estimates of the adaptive one (A8), the
+    task-space tracking and the contact wrench of compliance control (A11)."""
+    path, scenarios = report
+    figures = _elements(path.read_text(encoding="utf-8")).figures
+    drawn = {name: [f.removeprefix(f"fig-{name}-") for f in figures if f.startswith(f"fig-{name}-")]
+             for name in scenarios}
+    assert drawn == {"a6_pd_online": ["positions"], "a7_id_via_points": ["positions"],
+                     "a8_case1_sine": ["positions", "estimates"], "a11_compliance": ["p", "forces"]}
+
+
 class _ConnectionRecorder:
     """A local proxy that accepts and records every connection the browser tries to make."""
 

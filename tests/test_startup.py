@@ -66,6 +66,16 @@ def test_reading_a_robot_file_loads_no_symbolic_or_plotting_library():
     assert not {"sympy", "matplotlib", "pandas"} & set(loaded["heavy"])
 
 
+def test_discovering_the_report_runs_solves_no_theory():
+    """The theory's predictions are computed for the runs a report measures, not for every
+    scenario it discovers: listing the PRP's runs loads none of SciPy's solvers."""
+    loaded = loaded_after("import sys\nimport armlab\nfrom armlab.viz.experiments import discover\n"
+                          "experiments = discover(armlab.load_robot('prp'), quick=True)\n"
+                          "print(len(experiments), 'scipy.optimize' in sys.modules)")
+    count, optimize = loaded["out"].split()
+    assert int(count) > 20 and optimize == "False"
+
+
 def test_every_public_name_resolves_to_what_it_names():
     import armlab
 

@@ -619,6 +619,54 @@ def test_computed_torque_errors_are_drawn_with_the_designed_response():
     assert all(c[0] != "designed" for p in scope.panels for c in p.curves)
 
 
+def _same_scope(a, b) -> bool:
+    """Whether two scopes draw the same: title, caption, and every panel's labels, notes,
+    lines and curves (their data compared value by value)."""
+    if (a.name, a.title, a.caption, len(a.panels)) != (b.name, b.title, b.caption, len(b.panels)):
+        return False
+    for p, q in zip(a.panels, b.panels, strict=True):
+        if (p.ylabel, p.note, p.note_at, p.log, p.zoom, p.hlines) != (q.ylabel, q.note, q.note_at, q.log,
+                                                                     q.zoom, q.hlines):
+            return False
+        if len(p.curves) != len(q.curves):
+            return False
+        for (label, t, y, style), (label2, t2, y2, style2) in zip(p.curves, q.curves, strict=True):
+            if (label, style) != (label2, style2) or not (np.array_equal(t, t2) and np.array_equal(y, y2)):
+                return False
+    return True
+
+
+def test_main_scopes_are_the_layouts_figures_of_what_the_controller_is_for(monkeypatch):
+    """The figures of a quick report: the tracking of the space the controller works in and the
+    contact wrench, drawn exactly as in the whole layout, built without the others (a
+    computed-torque run's designed error is never computed)."""
+    from dataclasses import replace
+
+    import armlab.viz.layout as layout
+
+    joint = _synthetic_result()  # joint-space tracking and a contact force
+    task = _task_result({"type": "OperationalPD", "frame": "base"})
+    for result, names in ((joint, ["positions", "forces"]), (task, ["p", "forces"])):
+        main = layout.main_scopes(result)
+        assert [s.name for s in main] == names
+        whole = {s.name: s for s in layout.scope_layout(result)}
+        assert all(_same_scope(scope, whole[scope.name]) for scope in main)
+        assert not _same_scope(whole["positions"], whole["forces"])  # the comparison can fail
+    controller = {"type": "JointInverseDynamics", "kp": [16.0, 16.0], "kd": [8.0, 8.0]}
+    designed = replace(joint, signals={**joint.signals, "qd_err": np.zeros_like(joint.q)},
+                       labels={**joint.labels, "qd_err": joint.labels["q_err"]},
+                       units={**joint.units, "qd_err": ("m/s", "rad/s")},
+                       meta={**joint.meta, "controller": controller})
+
+    def no_response(*args, **kwargs):
+        raise AssertionError("the designed response was computed")
+
+    monkeypatch.setattr(layout, "linear_response", no_response)
+    with pytest.raises(AssertionError, match="designed response"):
+        layout.scope_layout(designed)
+    assert [s.name for s in layout.main_scopes(designed)] == ["positions", "forces"]
+
+
 def test_position_scope_marks_the_spring_rest_position():
     from dataclasses import replace
 

@@ -30,7 +30,6 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import root
 
 from armlab.control.gains import gain_matrix
 from armlab.dynamics import gravity_torque, inertia_matrix
@@ -49,7 +48,14 @@ def computed_torque_equilibrium(plant: Robot, controller, q_des) -> np.ndarray:
         q = q_des - e
         return inertia_matrix(model, q) @ (kp @ e) + gravity_torque(bias, q) - gravity_torque(plant, q)
 
-    solution = root(residual, np.zeros_like(q_des), tol=1e-14)
+    start = np.zeros_like(q_des)
+    if not np.any(residual(start)):
+        # An exact model: q̃ = 0 solves (T1) exactly, where the solver would stay.  SciPy's
+        # optimize package is imported only when there is something to solve (0.4 s).
+        return start
+    from scipy.optimize import root
+
+    solution = root(residual, start, tol=1e-14)
     # The residual decides, not ``success``: MINPACK's hybrd reports failure ("xtol too small")
     # when it sits on the root to rounding but cannot shrink its step below tol = 1e-14.
     if not np.all(np.isfinite(solution.x)) or np.abs(residual(solution.x)).max() > 1e-9:

@@ -20,7 +20,8 @@ def register(subparsers) -> None:
     parser.add_argument("--out", default="report", help="output directory")
     parser.add_argument("--quick", action="store_true",
                         help="a fast preview: the first scenario of each assignment, runs shortened, "
-                             "no animation (the numbers are those of the short runs)")
+                             "their main scopes alone, no animation (the numbers are those of the "
+                             "short runs)")
     parser.add_argument("--no-animation", action="store_true", help="leave out the GIF")
     parser.add_argument("--no-views", action="store_true",
                         help="leave out the interactive 3-D views (pages in DIR/view3d, need plotly)")

@@ -76,6 +76,10 @@ class Experiment:
     kind: str = ""
     predicted: list = field(default_factory=list)   # rows of armlab.theory.predictions
     view: str = ""   # its 3-D view page, relative to the report's folder ("" for none)
+    # () -> ``predicted``, called when the run is measured: a quick report runs a fifth of the
+    # scenarios it discovers, and the theory of the others would cost it SciPy's solvers.
+    predictor: object = None
+    quick: bool = False  # draw the main scopes alone (armlab.viz.layout.main_scopes)
 
     def run(self):
         """Run the scenario: ``runner()`` returns its SimulationResult."""
@@ -137,9 +141,10 @@ def environment_plane(environment) -> Plane | None:
     return Plane(tuple(rest), tuple(R_r @ vectors[:, int(np.argmax(values))]))
 
 
-def experiment_from_scenario(scenario, t_final: float | None = None) -> Experiment:
+def experiment_from_scenario(scenario, t_final: float | None = None, *, quick: bool = False) -> Experiment:
     """The :class:`Experiment` of a registered scenario (a name or a loaded Scenario), run up to
-    ``t_final`` [s] when given (shorter than the file's own t_final), else for its full length."""
+    ``t_final`` [s] when given (shorter than the file's own t_final), else for its full length;
+    ``quick`` draws its main scopes alone."""
     if isinstance(scenario, str):
         scenario = load_scenario(scenario)
     full = float(scenario.simulation["t_final"])
@@ -156,7 +161,7 @@ def experiment_from_scenario(scenario, t_final: float | None = None) -> Experime
                       description=scenario.description, parameters=parameters, robot=scenario.plant,
                       plane=environment_plane(scenario.environment), runner=runner,
                       scenario=_reloadable(scenario), t_final=short, kind=type(scenario.controller).__name__,
-                      predicted=predictions(scenario))
+                      predictor=lambda: predictions(scenario), quick=quick)
 
 
 def _reloadable(scenario) -> str:
@@ -168,13 +173,14 @@ def _reloadable(scenario) -> str:
 def discover(robot: Robot, *, quick: bool = False, course_dir=None) -> list[Experiment]:
     """Every registered scenario of ``robot`` as an :class:`Experiment` ready to run, by
     assignment and in the seed's order (:data:`SEED_ORDER`); ``quick`` shortens each run to
-    :data:`QUICK_T_FINAL`.  A robot without bundled scenarios gets the course generated for it
-    (:mod:`armlab.course`), written to ``course_dir`` (a temporary folder if None) so that each
-    experiment's file can be rerun."""
+    :data:`QUICK_T_FINAL` and draws its main scopes alone (:func:`armlab.viz.layout.main_scopes`).
+    A robot without bundled scenarios gets the course generated for it (:mod:`armlab.course`),
+    written to ``course_dir`` (a temporary folder if None) so that each experiment's file can
+    be rerun."""
     scenarios = [s for s in list_scenarios() if _belongs(s.plant.name, robot.name)]
     if not scenarios:
         scenarios = _course(robot, course_dir)
-    experiments = [experiment_from_scenario(scenario, QUICK_T_FINAL if quick else None)
+    experiments = [experiment_from_scenario(scenario, QUICK_T_FINAL if quick else None, quick=quick)
                    for scenario in scenarios]
     experiments.sort(key=lambda e: (e.assignment, *seed_rank(e.name)))
     return experiments

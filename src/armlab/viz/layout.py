@@ -24,6 +24,9 @@ plots a control engineer expects without plotting code of its own:
 * ``signals``    — every remaining logged signal and the controller state, one panel per
   signal and unit.
 
+:func:`main_scopes` gives the few of them that show what the controller is for (the tracking
+of its space, the contact wrench, the estimates): all that ``armlab report --quick`` draws.
+
 Each figure is a :class:`Scope`: a title and a column of :class:`Panel` s sharing the time
 axis; every y label carries its unit.  :mod:`armlab.viz.scopes` draws them.
 """
@@ -168,14 +171,30 @@ def _level(value) -> float | None:
     return float(value) if np.isfinite(value) else None
 
 
+def _run_of(result) -> _Run:
+    controller = result.meta.get("controller")
+    return _Run(result, np.asarray(result.t), {"q": result.q, **result.signals}, result.labels, result.units,
+                controller if isinstance(controller, dict) else {})
+
+
 def scope_layout(result) -> list[Scope]:
     """The figures to draw for ``result``, chosen from its groups (see the module docstring)."""
-    controller = result.meta.get("controller")
-    run = _Run(result, np.asarray(result.t), {"q": result.q, **result.signals}, result.labels, result.units,
-               controller if isinstance(controller, dict) else {})
+    run = _run_of(result)
     return [*_tracking_scopes(run), *_error_scopes(run), _torque_scope(run), *_force_scopes(run),
             *_estimate_scopes(run), *_lyapunov_scopes(run), *_singular_value_scopes(run),
             *_signal_scopes(run)]
+
+
+def main_scopes(result) -> list[Scope]:
+    """The figures of :func:`scope_layout` that show what the run's controller is for, in its
+    order: the tracking of the space the controller works in (each task-space group against
+    its reference when the run logs one, e.g. ``p``; else ``positions``), the contact wrench
+    (``forces``, A11–A15) and the parameter estimates (``estimates``, A8).  Built alone, not
+    picked from the whole layout: the errors' designed response would import SciPy's signal
+    package (over a second)."""
+    run = _run_of(result)
+    tracking = _tracking_scopes(run)
+    return [*(tracking[1:] or tracking), *_force_scopes(run), *_estimate_scopes(run)]
 
 
 # ----------------------------------------------------------------------------- tracking

@@ -49,7 +49,7 @@ from armlab.viz.experiments import (  # noqa: F401 — ReportError, assignment_n
 from armlab.viz.metrics import Metric, measure
 from armlab.viz.notes import markdown_html, metric_definitions, seed_notes, source_name
 from armlab.viz.progress import Progress
-from armlab.viz.scopes import SCOPE_DPI, scope_layout, scope_png
+from armlab.viz.scopes import SCOPE_DPI, main_scopes, scope_layout, scope_png
 from armlab.viz.view_pages import plotly_js, view_iframe, write_assets, write_view_page
 
 ASSIGNMENTS = {
@@ -237,7 +237,9 @@ def _scope_figures(exp: Experiment) -> list[tuple[str, str, bytes]]:
     result = exp.result
     figures = []
     diagnosis = result.diagnosis if result.status != "ok" else ""
-    for scope in [*scope_layout(result), *_theory_scopes(exp)]:
+    # A quick report draws each run's main figures alone: the scopes are most of its time.
+    scopes = main_scopes(result) if exp.quick else [*scope_layout(result), *_theory_scopes(exp)]
+    for scope in scopes:
         caption = f"{exp.name}: {scope.title}" + (f". {scope.caption}" if scope.caption else "")
         data = scope_png(scope, title_prefix=exp.name, diagnosis=diagnosis, dpi=SCOPE_DPI)
         figures.append((scope.name, caption, data))
@@ -318,9 +320,11 @@ def evaluate(exp: Experiment) -> Experiment:
             traceback.print_exc()
         exp.seconds = time.perf_counter() - started
     if exp.result is not None and len(exp.result.t) >= 2:
+        if exp.predictor is not None:
+            exp.predicted = exp.predictor()
         exp.metrics = measure(exp.result, exp.predicted)
         exp.figures = _scope_figures(exp)
-    exp.runner = None  # closures do not cross process boundaries
+    exp.runner = exp.predictor = None  # closures do not cross process boundaries
     return exp
 
 
@@ -364,13 +368,13 @@ def _prepare(half: str, robots: list[Robot], index: int) -> None:
         _PREPARED[index].set()
 
 
-def _evaluate_scenario(name: str, t_final: float | None) -> Experiment:
+def _evaluate_scenario(name: str, t_final: float | None, quick: bool) -> Experiment:
     """Worker-process job: build the experiment of a registered scenario and evaluate it
     (once both halves of the shared kernels are compiled, so that no two workers compile
     the same kernel)."""
     for event in _PREPARED:
         event.wait(PREPARE_TIMEOUT)
-    return evaluate(experiment_from_scenario(name, t_final))
+    return evaluate(experiment_from_scenario(name, t_final, quick=quick))
 
 
 def _schedule(planned: list[Experiment]) -> list[Experiment]:
@@ -416,7 +420,8 @@ def _run_all(planned: list[Experiment], progress: Progress, workers: int, main_j
         # for both (the cold compile of a report, ~2× faster than each worker compiling all).
         for index, half in enumerate(halves):
             pool.submit(_prepare, half, robots, index)
-        futures = {pool.submit(_evaluate_scenario, e.scenario, e.t_final): e.name for e in _schedule(pooled)}
+        futures = {pool.submit(_evaluate_scenario, e.scenario, e.t_final, e.quick): e.name
+                   for e in _schedule(pooled)}
         value = main_job()
         for exp in local:
             progress.step(f"running {exp.name}")
@@ -444,7 +449,7 @@ def build_report(robot: str | Robot = "prp", out_dir: str | Path = "report", *, 
     ----------
     robot : name of a bundled robot, a robot file, or a Robot
     quick : a fast preview: the first scenario of each assignment (seed order), each run
-        shortened to the registry's quick length
+        shortened to the registry's quick length and drawn with its main scopes alone
     experiments : optional list of :class:`Experiment` to run instead of the registry's
         scenarios of the robot (used by tests)
     animation : add a GIF of one run

@@ -35,6 +35,7 @@ from armlab.viz.layout import (  # noqa: F401  (also imported from here by calle
     Panel,
     Scope,
     Zoom,
+    main_scopes,
     pretty,
     scope_layout,
 )
