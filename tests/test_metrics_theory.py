@@ -103,6 +103,30 @@ def test_compliance_equilibrium_matches_the_run():
     np.testing.assert_allclose(f, [0.0, 1.0])
 
 
+@pytest.mark.parametrize("normal", [[0.0, -1.0, 0.0], [0.0, 1.0, 0.0]], ids=["pressed", "free"])
+def test_compliance_against_a_wall_rests_where_t3_says(normal):
+    """The seed's A11 against a wall through its spring's rest point: with free space on the
+    start's side x_d lies 10 cm inside the wall and the arm presses (K = k n nᵀ); turned round,
+    x_d lies in free space and the arm rests there without touching it."""
+    import dataclasses
+
+    from armlab.simulation.environment import PlanarWall
+
+    base = load_scenario("a11_compliance")
+    wall = PlanarWall(point=[0.0, -0.2, 0.5], normal=normal, stiffness=2e3, damping=50.0)
+    scenario = dataclasses.replace(base, environment=wall)
+    rows = {p.quantity: p.values for p in predictions(scenario)}
+    x_e, f = rows["equilibrium p_e (T3)"], rows["equilibrium contact force f_e (T3)"]
+    run = scenario.run()
+    np.testing.assert_allclose(run.signals["p"][-1], x_e, atol=1e-7)
+    np.testing.assert_allclose(run.signals["h_e"][-1, :3], f, atol=1e-4)
+    if normal[1] < 0:
+        assert -0.2 < x_e[1] < -0.1 and f[1] > 1.0    # pressed: between the wall and x_d
+    else:
+        np.testing.assert_array_equal(f, 0.0)
+        np.testing.assert_allclose(x_e, base.controller.reference.positions[-1])
+
+
 def test_option_3_gains_against_the_gravity_gradient_bound():
     alpha = gravity_gradient_bound(armlab.load_robot("prp"))
     assert 1.9 < alpha < 2.1

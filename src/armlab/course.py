@@ -36,12 +36,13 @@ assignments (the same format as the bundled ones, so each can be read, edited an
   it would yank the end effector at 300–3000 m/s²; on an arm of n > 3 joints A9 and A11 run
   with the joint stops (``joint_limits = "stop"``): the self-motion, damped by K_q and held by
   no stiffness, swings on the transient's reaction torques (the so100's 20 g jaw, whose axis
-  passes through the end point, drifts more than 2.6 rad, past its range, without them);
+  passes through the end point, runs 0.16–0.19 rad past its limit in A9 and A11 without them);
 * **the environment** — a plane through the end effector's position at q_g, normal to gravity
   (a table under the tool; normal n = −g/|g|, pointing into free space), pushed 1 cm into by
   the compliance and impedance references, pressed on with f_d = −0.5 n N by the force laws;
-  A11 and A12 use a spring along n (the seed's model; A11's as stiff as its controller, so the
-  compromise x_e = (K_P + K)⁻¹(K_P x_d + K x_r) lands half-way), A14–A15 a wall that only pushes.
+  A11, A14 and A15 a wall that only pushes (E4; A11's as stiff as its controller, so the
+  compromise x_e = (K_P + K)⁻¹(K_P x_d + K x_r), K = k n nᵀ, lands half-way), A12 a spring along
+  n (the seed's model), from rest on the surface.
 
 Task-space experiments control the three position components (x, y, z in Σ_0); on an arm of
 n ≠ 3 joints the laws that invert J_P use damped least squares (λ = 10⁻³).  An arm of fewer
@@ -347,7 +348,7 @@ class _Plan:
         # the 5–30 cm from start to goal below 10⁻⁸ m where 6 s left up to 10⁻⁵ m.
         # The self-motion swings on the reaction torques of the transient, damped by K_q alone (no
         # stiffness holds it): the arm's joint stops (S4) keep it in range, as on the real arm
-        # (the so100's 20 g jaw, its J_P column zero, drifts more than 2.6 rad without them).
+        # (the so100's 20 g jaw, its J_P column zero, runs 0.16–0.19 rad past its limit without them).
         settle = {"t_final": 10.0, "q0": q_s, **({} if n <= 3 else {"joint_limits": "stop"})}
         start = {"t_final": 6.0, "q0": q_s}
         self.add("a09_pd_goal", "A9", "A9 — operational-space PD with gravity compensation to the goal",
@@ -362,13 +363,15 @@ class _Plan:
                  {"type": "operational_inverse_dynamics", **task, **damping, "kp": OMEGA**2, "kd": 2 * OMEGA,
                   "reference": poses([0.5, 3.0], p_s, p_g)})
         into = poses([0.0], p_g - PUSH * normal)
-        # A surface as stiff as the controller along its normal: the compromise lands half-way.
+        # A wall as stiff as the controller along its normal: the compromise lands half-way.  A
+        # wall, not the seed's spring: from q_s, 3–30 cm off the surface, a spring that also pulls
+        # drew the end effector in with up to 50 N (UR5) before the two met.
         self.add("a11_compliance", "A11", "A11 — compliance control against the surface",
-                 f"PD + g towards a point 1 cm inside a surface as stiff as the controller (K = K_P = "
+                 f"PD + g towards a point 1 cm inside a wall as stiff as the controller (k = K_P = "
                  f"{kp:.4g} N/m along the normal): it settles half-way, at "
                  f"x_e = (K_P + K)⁻¹(K_P x_d + K x_r){said}",
                  settle, {"type": "compliance", **task, "kp": kp, "kd": kd, **self_motion, "reference": into},
-                 {"type": "spring", "stiffness": _surface(kp, normal), "rest_position": p_g},
+                 {"type": "planar_wall", "point": p_g, "normal": normal, "stiffness": kp},
                  loop=task_loop(kp * (np.eye(3) + np.outer(normal, normal))))
         # A12 starts on the surface: the spring also pulls (the seed's model), and from q_s, 3–30 cm
         # above it, K = 10⁴ N/m would yank the end effector at 300–3000 m/s² (M_d = 1 kg).

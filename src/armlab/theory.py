@@ -15,7 +15,8 @@ it (the report prints both side by side, :func:`predictions`).
   :func:`gravity_gradient_bound` estimates α on a grid of the joint box.                   (T2)
 * Compliance control against a spring (A11, law C11, E2) settles at
   x_e = (K_P + K)⁻¹(K_P x_d + K x_r), both stiffnesses in Σ_0's axes (K_P acts in Σ_d's or
-  Σ_0's, K in Σ_r's), and presses with f = K (x_e − x_r)                                   (T3)
+  Σ_0's, K in Σ_r's), and presses with f = K (x_e − x_r); against a wall (E4) in contact at
+  rest, the same with K = k n nᵀ and x_r its point (x_e = x_d if that is in free space)   (T3)
 * Force control with integral action (A14, A15) reaches f_e = f_d along Image(K): a zero final
   force error.                                                                             (T4)
 * Impedance control (A12, law C12) with an exact model imposes, on the position task in Σ_d,
@@ -161,7 +162,7 @@ def predictions(scenario) -> list[Prediction]:
         ParallelForcePosition,
     )
     from armlab.control.joint_space import JointInverseDynamics
-    from armlab.simulation.environment import Spring
+    from armlab.simulation.environment import PlanarWall, Spring
 
     controller, plant = scenario.controller, scenario.plant
     t_final = float(scenario.simulation.get("t_final", 0.0))
@@ -173,10 +174,16 @@ def predictions(scenario) -> list[Prediction]:
         labels = tuple(j.name for j in plant.joints)
         units = tuple("m" if j.kind == "prismatic" else "rad" for j in plant.joints)
         return [Prediction("equilibrium q̃ (T1)", labels, e, units, _FinalMean("q_err"))]
-    if isinstance(controller, ComplianceControl) and isinstance(scenario.environment, Spring):
+    if isinstance(controller, ComplianceControl) and isinstance(scenario.environment, (Spring, PlanarWall)):
         env, ref = scenario.environment, controller.reference
-        K = np.asarray(env.stiffness, dtype=float)
-        K = np.diag(K) if K.ndim == 1 else K
+        if isinstance(env, PlanarWall):
+            # In contact at rest (δ̇ = 0) the wall (E4) is the spring K = k n nᵀ about its plane.
+            K, R_r, x_r = np.zeros((6, 6)), np.eye(3), env.point
+            K[:3, :3] = env.stiffness * np.outer(env.normal, env.normal)
+        else:
+            K = np.asarray(env.stiffness, dtype=float)
+            K = np.diag(K) if K.ndim == 1 else K
+            R_r, x_r = np.asarray(env.rest_rotation, dtype=float), env.rest_position
         task = tuple(controller.task)
         if np.any(K[:3, 3:]) or np.any(K[3:, :3]) or not {0, 1, 2} <= set(task):
             return []  # (T3) needs the translation decoupled from the rotation, all of it controlled
@@ -184,9 +191,10 @@ def predictions(scenario) -> list[Prediction]:
         kp = gain_matrix(controller.kp, 6, "kp", components=task)[:3, :3]
         # Both stiffnesses in Σ_0's axes: K_P acts in Σ_d's ("desired") or Σ_0's ("base").
         R_kp = R_d if controller.frame == "desired" else np.eye(3)
-        R_r = np.asarray(env.rest_rotation, dtype=float)
         kp0, k0 = R_kp @ kp @ R_kp.T, R_r @ K[:3, :3] @ R_r.T
-        x_e, f = compliance_equilibrium(kp0, k0, p_d, env.rest_position)
+        x_e, f = compliance_equilibrium(kp0, k0, p_d, x_r)
+        if isinstance(env, PlanarWall) and env.normal @ (env.point - x_e) < 0.0:
+            x_e, f = np.asarray(p_d, dtype=float), np.zeros(3)   # x_d in free space: no contact
         return [Prediction("equilibrium p_e (T3)", ("x", "y", "z"), x_e, ("m",) * 3, _FinalMean("p")),
                 Prediction("equilibrium contact force f_e (T3)", ("fx", "fy", "fz"), f, ("N",) * 3,
                            _FinalMean("h_e", (0, 1, 2)))]
