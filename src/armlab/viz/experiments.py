@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import re
 import tomllib
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -157,11 +157,15 @@ def experiment_from_scenario(scenario, t_final: float | None = None, *, quick: b
     if short is not None:
         parameters.append(("report (quick)", f"run shortened to t_final = {short:g} s"))
     number = assignment_number(scenario.assignment) or assignment_number(scenario.name) or 0
+    # The theory of the run as it is made: a shortened run is predicted at its own end (the A7
+    # equilibrium (T1) is that of q_des at t_final).
+    predicted = scenario if short is None else replace(scenario, simulation={**scenario.simulation,
+                                                                              "t_final": short})
     return Experiment(name=scenario.name, assignment=number, title=scenario.title,
                       description=scenario.description, parameters=parameters, robot=scenario.plant,
                       plane=environment_plane(scenario.environment), runner=runner,
                       scenario=_reloadable(scenario), t_final=short, kind=type(scenario.controller).__name__,
-                      predictor=lambda: predictions(scenario), quick=quick)
+                      predictor=lambda: predictions(predicted), quick=quick)
 
 
 def _reloadable(scenario) -> str:
