@@ -43,6 +43,14 @@ def run(args) -> int:
     from armlab.robots import load_robot
     from armlab.viz.report import build_report
 
+    if args.quiet:
+        import os
+        import warnings
+
+        # The full report's workers are spawned interpreters: they take the filter from the
+        # environment, not from this process.
+        os.environ["PYTHONWARNINGS"] = "ignore"
+        warnings.simplefilter("ignore")
     robot = load_robot(args.robot, tip=args.tip)
     path = build_report(robot, args.out, quick=args.quick, show_progress=not args.quiet,
                         animation=not (args.no_animation or args.quick), sweeps=args.sweep,
