@@ -27,8 +27,11 @@ EXAMPLES = sorted((ROOT / "examples").glob("*.ipynb"))
 def executed(tmp_path_factory):
     """Every example notebook, executed once in a fresh kernel that imports this checkout."""
     path = os.pathsep.join([str(ROOT / "src"), os.environ.get("PYTHONPATH", "")])
-    saved = os.environ.get("PYTHONPATH")
+    saved = {name: os.environ.get(name) for name in ("PYTHONPATH", "MPLBACKEND")}
     os.environ["PYTHONPATH"] = path  # the kernel inherits the environment
+    # A notebook's own backend (inline), not the file backend ``armlab.cli.main`` sets for the
+    # commands an earlier test of this process ran: with it no figure would be displayed.
+    os.environ.pop("MPLBACKEND", None)
     done = {}
     try:
         for notebook in EXAMPLES:
@@ -39,10 +42,11 @@ def executed(tmp_path_factory):
             client.execute()
             done[notebook.name] = nb
     finally:
-        if saved is None:
-            os.environ.pop("PYTHONPATH", None)
-        else:
-            os.environ["PYTHONPATH"] = saved
+        for name, value in saved.items():
+            if value is None:
+                os.environ.pop(name, None)
+            else:
+                os.environ[name] = value
     return done
 
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import os
 
 from armlab.commands import add_tip_argument
 
@@ -43,17 +44,20 @@ def run(args) -> int:
     from armlab.robots import load_robot
     from armlab.viz.report import build_report
 
-    if args.quiet:
-        import os
-        import warnings
-
-        # The full report's workers are spawned interpreters: they take the filter from the
-        # environment, not from this process.
-        os.environ["PYTHONWARNINGS"] = "ignore"
-        warnings.simplefilter("ignore")
     robot = load_robot(args.robot, tip=args.tip)
-    path = build_report(robot, args.out, quick=args.quick, show_progress=not args.quiet,
-                        animation=not (args.no_animation or args.quick), sweeps=args.sweep,
-                        views=not args.no_views)
+    # --quiet: ``armlab.cli`` silences this process's warnings; the full report's workers are
+    # spawned interpreters, which take their filter from the environment.
+    saved = os.environ.get("PYTHONWARNINGS")
+    if args.quiet:
+        os.environ["PYTHONWARNINGS"] = "ignore"
+    try:
+        path = build_report(robot, args.out, quick=args.quick, show_progress=not args.quiet,
+                            animation=not (args.no_animation or args.quick), sweeps=args.sweep,
+                            views=not args.no_views)
+    finally:
+        if saved is None:
+            os.environ.pop("PYTHONWARNINGS", None)
+        else:
+            os.environ["PYTHONWARNINGS"] = saved
     print(path)
     return 0
