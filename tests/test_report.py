@@ -466,9 +466,9 @@ def test_a_report_worker_leaves_when_its_parent_is_killed(tmp_path):
     script = ("import os, threading, time\n"
               "from multiprocessing import get_context\n"
               "from concurrent.futures import ProcessPoolExecutor\n"
-              "from armlab.viz import report\n"
+              "from armlab.viz import report_runs\n"
               "pool = ProcessPoolExecutor(1, mp_context=get_context('spawn'),\n"
-              "                           initializer=report._init_worker, initargs=((), os.getpid()))\n"
+              "                           initializer=report_runs._init_worker, initargs=((), os.getpid()))\n"
               "print(pool.submit(os.getpid).result(), flush=True)\n"
               "pool.submit(time.sleep, 120)\n"
               "threading.Event().wait()\n")
