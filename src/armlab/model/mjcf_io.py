@@ -21,7 +21,9 @@ Rot(a_k, −q0_k) · Tr(−p_k) follows it.  So armlab's q is MuJoCo's ``qpos``,
 
 Read as: ``body_mass``, ``body_ipos``/``body_iquat``/``body_inertia`` → inertials;
 ``jnt_range`` (when ``jnt_limited``) → limits; ``dof_damping`` → viscous friction F_v;
-``dof_frictionloss`` → Coulomb friction F_s; ``opt.gravity`` (in the world frame) → g.
+``dof_frictionloss`` → Coulomb friction F_s; ``opt.gravity`` (in the world frame) → g; the
+geoms MuJoCo's viewer shows by default (meshes as compiled, and primitives) → ``visuals``, for
+drawing only.
 Not modelled, and named in ``robot.notes`` when present: ``dof_armature`` (MuJoCo adds it to
 the diagonal of M; armlab's rotors also couple with the previous link), joint stiffness,
 gravity compensation, and equality constraints among locked joints.  Free and ball joints and
@@ -78,6 +80,47 @@ def _record(**fields):
     return SimpleNamespace(**fields)
 
 
+def _geom_visuals(mujoco, m) -> dict[int, list]:
+    """``{body: [visual records]}`` of the geoms MuJoCo's viewer shows by default (their
+    ``group`` on in ``mjv_defaultOption``: 0–2, so not the collision geoms the Menagerie puts in
+    group 3), each with its frame in its body (``geom_pos``, ``geom_quat``) and its triangles in
+    that frame (V1 with scale 1).  A mesh's are MuJoCo's compiled ``mesh_vert``/``mesh_face``:
+    the compiler scales the file's vertices and moves them into the mesh frame (centred and
+    turned to its principal axes) while moving the geom's frame onto it, so compiled vertex and
+    compiled geom frame go together; a box, sphere, capsule, cylinder or ellipsoid is made of
+    its ``geom_size`` (half sides, radius and half length, semi-axes).  Planes, height fields
+    and SDF geoms are not drawn."""
+    from armlab.model.shapes import primitive_mesh
+
+    shown = np.asarray(mujoco.MjvOption().geomgroup, dtype=bool)
+    T = mujoco.mjtGeom
+    visuals: dict[int, list] = {}
+    for g in range(m.ngeom):
+        kind, size = int(m.geom_type[g]), np.asarray(m.geom_size[g], dtype=float)
+        if not shown[min(max(int(m.geom_group[g]), 0), len(shown) - 1)]:
+            continue
+        if kind == int(T.mjGEOM_MESH):
+            mesh = int(m.geom_dataid[g])
+            v0, f0 = int(m.mesh_vertadr[mesh]), int(m.mesh_faceadr[mesh])
+            triangles = (np.array(m.mesh_vert[v0:v0 + int(m.mesh_vertnum[mesh])], dtype=float),
+                         np.array(m.mesh_face[f0:f0 + int(m.mesh_facenum[mesh])], dtype=np.int64))
+        elif kind == int(T.mjGEOM_BOX):
+            triangles = primitive_mesh("box", 2.0 * size)
+        elif kind == int(T.mjGEOM_SPHERE):
+            triangles = primitive_mesh("sphere", size[:1])
+        elif kind in (int(T.mjGEOM_CAPSULE), int(T.mjGEOM_CYLINDER)):
+            name = "capsule" if kind == int(T.mjGEOM_CAPSULE) else "cylinder"
+            triangles = primitive_mesh(name, (size[0], 2.0 * size[1]))
+        elif kind == int(T.mjGEOM_ELLIPSOID):
+            triangles = primitive_mesh("ellipsoid", size)
+        else:
+            continue
+        origin = transform(_quat_matrix(mujoco, m.geom_quat[g]), m.geom_pos[g])
+        visuals.setdefault(int(m.geom_bodyid[g]), []).append(
+            _record(origin=origin, geometry=_record(triangles=triangles)))
+    return visuals
+
+
 def mjcf_tree(path: Path, mujoco, m):
     """(model name, links, joints, world gravity, qpos0 per joint, frame names) of the compiled
     model ``m`` in URDF form (see the module docstring).  Each moving joint's child link is the
@@ -90,13 +133,14 @@ def mjcf_tree(path: Path, mujoco, m):
     body_names = [name(mujoco.mjtObj.mjOBJ_BODY, b, f"body{b}") for b in range(m.nbody)]
     joint_names = [name(mujoco.mjtObj.mjOBJ_JOINT, j, f"joint{j}") for j in range(m.njnt)]
     links, joints, qpos0, frame_names = [], [], {}, {}
+    visuals = _geom_visuals(mujoco, m)
     for b in range(m.nbody):
         inertial = None
         if b > 0 and m.body_mass[b] > 0:
             inertial = _record(mass=float(m.body_mass[b]),
                                origin=transform(_quat_matrix(mujoco, m.body_iquat[b]), m.body_ipos[b]),
                                inertia=np.diag(m.body_inertia[b]))
-        links.append(_record(name=body_names[b], inertial=inertial))
+        links.append(_record(name=body_names[b], inertial=inertial, visuals=visuals.get(b, [])))
         if b == 0:
             continue
         parent = body_names[m.body_parentid[b]]

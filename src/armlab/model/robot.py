@@ -153,28 +153,54 @@ class Link:
 
 @dataclass(frozen=True)
 class Visual:
-    """A mesh of the robot file drawn on one of its frames (a URDF ``<visual>`` whose geometry
-    is a ``<mesh>``).  Only drawings read it: kinematics and dynamics never do.
+    """A visual shape of the robot file drawn on one of its frames: a URDF ``<visual>`` (a
+    ``<mesh>`` file, or a ``<box>``, ``<cylinder>``, ``<sphere>``) or a visible MJCF geom.  Only
+    drawings read it: kinematics and dynamics never do.
 
-    A point p of the mesh file is drawn at
+    A point p of the shape is drawn at
 
         p_frame = T · diag(scale) · p                                                   (V1)
 
     in Σ_0 (``body`` 0, parts fixed to the ground) or in link frame Σ_i (``body`` i = 1 … n,
     parts moved by joint i), ``T`` = ``pose`` (4, 4) folding the file's fixed joints and the
-    visual's ``<origin>``.  ``mesh`` is the mesh file's path, ``part`` the file's link that
-    carries it.
+    visual's ``<origin>`` (an MJCF geom's frame in its body).  The points are those of the mesh
+    file ``mesh`` (its path), or, when ``mesh`` is empty, the ``vertices`` (V, 3) of the
+    triangles ``faces`` (F, 3) (a primitive shape, or a mesh as MuJoCo compiled it, in its mesh
+    frame).  ``part`` is the file's link (MJCF: body) that carries it.
     """
 
     body: int
     pose: np.ndarray
-    mesh: str
+    mesh: str = ""
     scale: np.ndarray = field(default_factory=lambda: np.ones(3))
     part: str = ""
+    vertices: np.ndarray | None = None
+    faces: np.ndarray | None = None
 
     def __post_init__(self):
         object.__setattr__(self, "pose", _frozen_array(self.pose, (4, 4)))
         object.__setattr__(self, "scale", _frozen_array(self.scale, (3,)))
+        if bool(self.mesh) == (self.vertices is not None or self.faces is not None):
+            raise ValueError(f"visual of {self.part!r}: give a mesh file or vertices and faces, "
+                             "one of the two")
+        if self.mesh:
+            return
+        if self.vertices is None or self.faces is None:
+            raise ValueError(f"visual of {self.part!r}: vertices and faces go together")
+        vertices = np.array(self.vertices, dtype=float)
+        faces = np.array(self.faces)
+        if vertices.ndim != 2 or vertices.shape[1] != 3 or not np.all(np.isfinite(vertices)):
+            raise ValueError(f"visual of {self.part!r}: vertices must be finite and of shape (V, 3), "
+                             f"got {vertices.shape}")
+        if (faces.ndim != 2 or faces.shape[1] != 3 or not np.issubdtype(faces.dtype, np.integer)
+                or (faces.size and (faces.min() < 0 or faces.max() >= len(vertices)))):
+            raise ValueError(f"visual of {self.part!r}: faces must be (F, 3) indices of its "
+                             f"{len(vertices)} vertices")
+        faces = faces.astype(np.int64)
+        vertices.setflags(write=False)
+        faces.setflags(write=False)
+        object.__setattr__(self, "vertices", vertices)
+        object.__setattr__(self, "faces", faces)
 
 
 class RobotArrays(NamedTuple):

@@ -24,6 +24,7 @@ from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
 from armlab.kinematics import link_frames
 from armlab.model.robot import Robot
+from armlab.model.shapes import box_faces, cylinder_faces, sphere_faces
 from armlab.model.toml_io import evaluate_expression
 from armlab.spatial import inverse_transform, rpy_matrix
 
@@ -119,33 +120,6 @@ def _value(value, robot: Robot) -> float:
     return evaluate_expression(value, robot.parameters) if isinstance(value, str) else float(value)
 
 
-def _box_faces(size) -> list[np.ndarray]:
-    a, b, c = np.asarray(size) / 2.0
-    v = np.array([[x, y, z] for x in (-a, a) for y in (-b, b) for z in (-c, c)])
-    quads = [(0, 1, 3, 2), (4, 5, 7, 6), (0, 1, 5, 4), (2, 3, 7, 6), (0, 2, 6, 4), (1, 3, 7, 5)]
-    return [v[list(quad)] for quad in quads]
-
-
-def _cylinder_faces(radius: float, length: float, segments: int = 24) -> list[np.ndarray]:
-    angle = np.linspace(0.0, 2.0 * np.pi, segments + 1)
-    ring = np.column_stack((radius * np.cos(angle), radius * np.sin(angle), np.zeros_like(angle)))
-    bottom, top = ring - [0, 0, length / 2], ring + [0, 0, length / 2]
-    sides = [np.array([bottom[k], bottom[k + 1], top[k + 1], top[k]]) for k in range(segments)]
-    return [*sides, bottom[:-1], top[:-1]]
-
-
-def _sphere_faces(radius: float, segments: int = 12) -> list[np.ndarray]:
-    lat = np.linspace(0.0, np.pi, segments // 2 + 1)
-    lon = np.linspace(0.0, 2.0 * np.pi, segments + 1)
-
-    def point(a, b):
-        return radius * np.array([np.sin(a) * np.cos(b), np.sin(a) * np.sin(b), np.cos(a)])
-
-    return [np.array([point(lat[i], lon[j]), point(lat[i], lon[j + 1]),
-                      point(lat[i + 1], lon[j + 1]), point(lat[i + 1], lon[j])])
-            for i in range(len(lat) - 1) for j in range(segments)]
-
-
 def link_solids(robot: Robot) -> list[Solid | None]:
     """The drawable shape of each link in its frame Σ_i, or None where the link has no shape.
 
@@ -160,11 +134,11 @@ def link_solids(robot: Robot) -> list[Solid | None]:
             continue
         kind = shape["type"]
         if kind == "box":
-            local = _box_faces([_value(v, robot) for v in shape["size"]])
+            local = box_faces([_value(v, robot) for v in shape["size"]])
         elif kind == "cylinder":
-            local = _cylinder_faces(_value(shape["radius"], robot), _value(shape["length"], robot))
+            local = cylinder_faces(_value(shape["radius"], robot), _value(shape["length"], robot))
         else:
-            local = _sphere_faces(_value(shape["radius"], robot))
+            local = sphere_faces(_value(shape["radius"], robot))
         R = rpy_matrix([_value(v, robot) for v in shape.get("rpy", [0, 0, 0])])
         com = np.asarray(link.inertial.com, dtype=float)
         solids.append(Solid(link.name, tuple(face @ R.T + com for face in local)))

@@ -1,5 +1,6 @@
-"""The mesh files of a robot (its :class:`~armlab.model.robot.Visual` records), read and thinned
-for drawing.
+"""The visual shapes of a robot (its :class:`~armlab.model.robot.Visual` records: mesh files,
+or triangles the loader made of primitive shapes and of MJCF meshes), read and thinned for
+drawing.
 
 Every visual's vertices are placed in the frame of the body that carries it,
 
@@ -127,7 +128,7 @@ def read_mesh(path) -> tuple[np.ndarray, np.ndarray]:
 
 def body_meshes(robot, max_vertices: int = MAX_VERTICES) -> dict[int, tuple[np.ndarray, np.ndarray]]:
     """``{body: (vertices (V, 3) [m], triangles (F, 3))}`` of the bodies of ``robot`` that carry
-    visual meshes, in the body's frame (Σ_0 for 0, Σ_i for link i; V1).
+    visuals, in the body's frame (Σ_0 for 0, Σ_i for link i; V1).
 
     The bodies share ``max_vertices``: each is thinned (:func:`decimate`) to a share in
     proportion to its vertex count, and to no fewer than :data:`LEAST_VERTICES`.  ``None``
@@ -136,13 +137,16 @@ def body_meshes(robot, max_vertices: int = MAX_VERTICES) -> dict[int, tuple[np.n
     """
     parts: dict[int, list[tuple[np.ndarray, np.ndarray]]] = {}
     for visual in getattr(robot, "visuals", ()):
-        try:
-            vertices, faces = read_mesh(visual.mesh)
-        except Exception as error:  # a broken mesh file costs its drawing, not the view
-            reason = " ".join(str(error).split()) or type(error).__name__
-            warnings.warn(f"{visual.mesh}: mesh: cannot be read ({reason}); link {visual.part} is "
-                          "drawn as its inertia shape", stacklevel=2)
-            continue
+        if not visual.mesh:   # triangles carried by the record: a primitive or a compiled mesh
+            vertices, faces = visual.vertices, visual.faces
+        else:
+            try:
+                vertices, faces = read_mesh(visual.mesh)
+            except Exception as error:  # a broken mesh file costs its drawing, not the view
+                reason = " ".join(str(error).split()) or type(error).__name__
+                warnings.warn(f"{visual.mesh}: mesh: cannot be read ({reason}); link {visual.part} is "
+                              "drawn as its inertia shape", stacklevel=2)
+                continue
         placed = (vertices * visual.scale) @ visual.pose[:3, :3].T + visual.pose[:3, 3]
         parts.setdefault(visual.body, []).append((placed, faces))
     joined = {}

@@ -5,8 +5,9 @@ it with the mouse, zoom, hover); :func:`write_view3d` writes it as one HTML file
 plotly.js inside (``include_plotlyjs=True``), so it opens without a network.
 
 The scene is the one :mod:`armlab.viz.drawing` draws, in Σ_base (``frame="base"``) or Σ_0:
-each link as the meshes of its robot file where it has some (URDF ``<visual>`` meshes, thinned
-to a vertex budget by :mod:`armlab.viz.meshes`; parts fixed to the ground drawn still), else
+each link as the visual shapes of its robot file where it has some (URDF ``<visual>`` meshes,
+boxes, cylinders and spheres; the geoms of an MJCF file that MuJoCo shows; thinned to a vertex
+budget by :mod:`armlab.viz.meshes`; parts fixed to the ground drawn still), else
 as the primitive shape its inertia was computed from (box, cylinder, sphere at the centre of
 mass), else as a segment between frame origins; the kinematic chain; every frame Σ_base,
 Σ_0 … Σ_e as an x/y/z = red/green/blue triad with its name; the environment's surface (a
@@ -28,6 +29,7 @@ from pathlib import Path
 import numpy as np
 
 from armlab.kinematics import link_frames
+from armlab.model.shapes import triangulate
 from armlab.robots import load_robot
 from armlab.viz.animation import resample
 from armlab.viz.drawing import (
@@ -82,18 +84,6 @@ def _figure_class(go):
     return _FIGURE_CLASS[0]
 
 
-def _triangles(faces) -> tuple[np.ndarray, np.ndarray]:
-    """Vertices (V, 3) and triangles (T, 3) of polygons ``faces`` (each (k, 3), convex): each
-    face as a fan from its first vertex."""
-    vertices, triangles, start = [], [], 0
-    for face in faces:
-        k = face.shape[0]
-        vertices.append(face)
-        triangles += [(start, start + a, start + a + 1) for a in range(1, k - 1)]
-        start += k
-    return np.vstack(vertices), np.array(triangles, dtype=int)
-
-
 class _Scene:
     """The traces of one robot, and their coordinates at a configuration q."""
 
@@ -104,7 +94,7 @@ class _Scene:
         files = body_meshes(robot, max_vertices) if robot.visuals else {}
         solids = link_solids(robot)
         # Link i: its file's meshes (in Σ_{i+1}), else its inertia shape, else None (a segment).
-        self.meshes = [files[i + 1] if i + 1 in files else None if solid is None else _triangles(solid.faces)
+        self.meshes = [files[i + 1] if i + 1 in files else None if solid is None else triangulate(solid.faces)
                        for i, solid in enumerate(solids)]
         self.from_file = [i + 1 in files for i in range(robot.n)]
         self.axis_length = 0.15 * characteristic_length(robot)
