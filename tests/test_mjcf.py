@@ -139,3 +139,13 @@ def test_mjcf_armature_is_named(tmp_path):
                                                               'damping="0.3" armature="0.2"'))
     robot = armlab.load_robot(path)
     assert any(note.startswith("armature not modelled") and "shoulder = 0.2" in note for note in robot.notes)
+
+
+def test_unnamed_joints_load_under_the_names_armlab_gives_them(tmp_path):
+    """MJCF joints need no name: armlab calls joint j "joint<j>", in the robot and in its notes
+    (the armature note once looked joints up by MuJoCo's empty name and failed)."""
+    text = (ARM.replace("FINGER", "").replace('name="elbow_a" ', "")
+            .replace('name="elbow_b" ', 'armature="0.1" '))
+    robot = armlab.load_robot(_write(tmp_path, text))
+    assert list(robot.joint_names) == ["shoulder", "joint1", "joint2", "slide"]
+    assert any(note.startswith("armature not modelled") and "joint2 = 0.1" in note for note in robot.notes)

@@ -213,7 +213,8 @@ def load_mjcf(path: str | Path, *, tip: str | None = None, gravity=None, name: s
 def _ignored(path, mujoco, m, robot: Robot) -> list[str]:
     """Notes on what MuJoCo models and armlab does not; equality constraints on the chain fail."""
     chain = set(robot.joint_names)
-    joint_id = {mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_JOINT, j): j for j in range(m.njnt)}
+    # The names mjcf_tree gave the joints: an unnamed one is "joint<j>" there too.
+    joint_id = {mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_JOINT, j) or f"joint{j}": j for j in range(m.njnt)}
     dofs = [int(m.jnt_dofadr[joint_id[n]]) for n in robot.joint_names]
     notes = []
     armature = {n: float(m.dof_armature[d]) for n, d in zip(robot.joint_names, dofs, strict=True)
