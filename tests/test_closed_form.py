@@ -227,6 +227,27 @@ def test_a_robot_keeps_its_generated_entries_out_of_pickles():
     np.testing.assert_array_equal(armlab.inertia_matrix(copy, q, dynamics="closed_form"), B)
 
 
+def test_the_cache_folder_is_armlab_cache_dir_else_the_users(monkeypatch, tmp_path):
+    """ARMLAB_CACHE_DIR wins over every platform default; without it (or empty) the folder is
+    the user's cache folder of armlab, on Linux by the XDG base-directory rules."""
+    import sys
+
+    from armlab.specialise import cache_dir
+
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "xdg"))
+    monkeypatch.setenv("HOME", str(tmp_path / "home"))
+    monkeypatch.setenv("ARMLAB_CACHE_DIR", str(tmp_path / "mine"))
+    assert cache_dir() == tmp_path / "mine"
+    monkeypatch.setenv("ARMLAB_CACHE_DIR", "")
+    default = cache_dir()
+    assert "armlab" in default.parts and not default.is_relative_to(tmp_path / "mine")
+    if sys.platform.startswith("linux"):
+        assert default == tmp_path / "xdg" / "armlab"
+        monkeypatch.delenv("XDG_CACHE_HOME")
+        monkeypatch.delenv("ARMLAB_CACHE_DIR")
+        assert cache_dir() == tmp_path / "home" / ".cache" / "armlab"
+
+
 def test_auto_without_a_module_on_disk_calls_the_kernels(monkeypatch, tmp_path):
     from armlab import specialise
 

@@ -419,8 +419,8 @@ def test_derivations_are_kept_on_disk_keyed_by_robot_and_sources(tmp_path, monke
     """The A1–A5 HTML is derived once per robot and code version; a damaged file is derived
     anew (and replaced whole), another robot gets its own file."""
     import armlab
+    from armlab.progress import progress_bar
     from armlab.viz import report as report_module
-    from armlab.viz.progress import Progress
 
     monkeypatch.setenv("ARMLAB_CACHE_DIR", str(tmp_path))
     calls = []
@@ -431,7 +431,7 @@ def test_derivations_are_kept_on_disk_keyed_by_robot_and_sources(tmp_path, monke
 
     monkeypatch.setattr(report_module, "_symbolic_sections", derive)
     prp, planar = armlab.load_robot("prp"), armlab.load_robot("planar2r")
-    quiet = Progress(1, enabled=False)
+    quiet = progress_bar(1, enabled=False)
     first = report_module._cached_symbolic_sections(prp, quiet)
     assert report_module._cached_symbolic_sections(prp, quiet) == first == {1: "<p>prp</p>", 2: "<p>two</p>"}
     assert calls == ["prp"]

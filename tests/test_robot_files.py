@@ -303,6 +303,26 @@ def _cli(capsys, *argv):
     return code, out, err
 
 
+def test_text_tables_align_columns_and_keep_cells_as_given():
+    """The CLI's tables: a rule under the header, every column starting at one offset on each
+    line, cells verbatim (numbers neither reparsed nor realigned), no trailing blanks."""
+    from armlab.commands import format_table
+
+    rows = [["d1", "0.50", "-0", "[-0.15, 0.35] m"], ["theta2", "1e-05", "", "π/2"]]
+    headers = ["joint", "k_r", "I_m [kg·m²]", "limits"]
+    text = format_table(headers, rows, "  ")
+    lines = text.split("\n")
+    assert len(lines) == 4 and all(line.startswith("  ") and line == line.rstrip() for line in lines)
+    assert set(lines[1].strip()) == {"-", " "}
+    starts = [k for k in range(3, len(lines[1])) if lines[1][k] == "-" and lines[1][k - 1] == " "]
+    assert len(starts) == 3
+    for line, cells in zip([lines[0], *lines[2:]], [headers, *rows], strict=True):
+        assert line[2:].startswith(cells[0] + " ")
+        for start, cell in zip(starts, cells[1:], strict=True):
+            assert line[start:start + len(cell)] == cell and line[start - 1] == " ", (line, cell)
+    assert format_table(["a", "b"], []).split("\n")[0].split() == ["a", "b"]
+
+
 def test_cli_robots_lists_every_bundled_robot(capsys):
     code, out, err = _cli(capsys, "robots")
     assert code == 0 and not err

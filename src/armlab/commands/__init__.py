@@ -19,12 +19,13 @@ def add_tip_argument(parser) -> None:
 
 
 def format_table(headers: list[str], rows: list[list[str]], indent: str = "") -> str:
-    """Left-aligned plain-text table with a rule under the header."""
-    cells = [list(map(str, headers))] + [[str(c) for c in row] for row in rows]
-    widths = [max(len(row[k]) for row in cells) for k in range(len(headers))]
-    lines = ["  ".join(c.ljust(w) for c, w in zip(row, widths, strict=True)).rstrip() for row in cells]
-    lines.insert(1, "  ".join("-" * w for w in widths))
-    return "\n".join(indent + line for line in lines)
+    """Left-aligned plain-text table with a rule under the header: tabulate's "simple" format,
+    every cell as given (no number parsing or realignment), no trailing blanks."""
+    from tabulate import tabulate  # here, not at import: `armlab --help` formats no table
+
+    text = tabulate([[str(c) for c in row] for row in rows], [str(h) for h in headers], tablefmt="simple",
+                    stralign="left", disable_numparse=True)
+    return "\n".join((indent + line).rstrip() for line in text.splitlines())
 
 
 def format_number(value: float, digits: int = 4) -> str:

@@ -25,19 +25,18 @@ Two generators write such a module:
   evaluated for the robot's numbers (straight-line code, the geometry's zeros and ones folded
   away).
 
-The module is written to the cache directory (folder ``closed_form`` of ``ARMLAB_CACHE_DIR``,
-default ``$XDG_CACHE_HOME/armlab`` or ``~/.cache/armlab``) under a key made of the robot's
-numbers and its generator's sources, and numba caches its compile beside it: the generation
-(seconds of SymPy for a 3-joint arm, a fraction of a second of tracing for the Puma560) and the
-compile (~7 s for the Puma560) happen once per robot and machine.  Every module, new or found
-on disk, is checked against the compiled kernels (``armlab.kernels``) at random states before
-it is used in a process (relative agreement 1e-9); one that disagrees, or a robot whose model
-cannot be generated, falls back to the numeric kernels with the reason in
+The module is written to the cache directory (folder ``closed_form`` of :func:`cache_dir`:
+``ARMLAB_CACHE_DIR``, else the user's cache folder, ``~/.cache/armlab`` on Linux) under a key
+made of the robot's numbers and its generator's sources, and numba caches its compile beside
+it: the generation (seconds of SymPy for a 3-joint arm, a fraction of a second of tracing for
+the Puma560) and the compile (~7 s for the Puma560) happen once per robot and machine.  Every
+module, new or found on disk, is checked against the compiled kernels (``armlab.kernels``) at
+random states before it is used in a process (relative agreement 1e-9); one that disagrees, or
+a robot whose model cannot be generated, falls back to the numeric kernels with the reason in
 :func:`closed_form_status` (a simulation records it in ``result.meta["dynamics_fallback"]``).
 The module's last line is the SHA-256 of the rest: a module found truncated or edited is
 generated again (with a ``CacheWarning``), never imported.  The outcome is kept per process by
-the robot's key, never in the
-robot.
+the robot's key, never in the robot.
 
 The choice, ``dynamics=``:
 
@@ -99,12 +98,17 @@ def choice_problem(dynamics) -> str:
 
 
 def cache_dir() -> Path:
-    """Where generated modules (and their numba caches) live."""
+    """armlab's cache folder, the one place its path is decided: generated modules (and their
+    numba caches) in ``closed_form``, the report's derivations in ``report``.
+    ``ARMLAB_CACHE_DIR`` if set, else the platform's user cache folder of armlab
+    (``platformdirs``: ``$XDG_CACHE_HOME/armlab`` or ``~/.cache/armlab`` on Linux,
+    ``~/Library/Caches/armlab`` on macOS, ``%LOCALAPPDATA%\\armlab\\Cache`` on Windows)."""
     root = os.environ.get("ARMLAB_CACHE_DIR")
     if root:
         return Path(root)
-    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
-    return Path(base) / "armlab"
+    from platformdirs import user_cache_path  # here: `import armlab` loads none of it
+
+    return user_cache_path("armlab", appauthor=False)
 
 
 def _generator(robot: Robot) -> str:

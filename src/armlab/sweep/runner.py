@@ -25,7 +25,6 @@ from __future__ import annotations
 
 import math
 import os
-import sys
 import time
 from dataclasses import dataclass
 
@@ -126,21 +125,11 @@ class SweepOutcome:
 
 
 def _progress(total: int, initial: int, label: str, enabled: bool):
-    """A tqdm bar (rate and ETA) on stderr; a no-op without tqdm or when disabled."""
-    try:
-        from tqdm import tqdm
-    except ImportError:
-        enabled = False
-        tqdm = None
-    if not enabled:
-        class Silent:
-            def update(self, n):
-                pass
+    """The sweep's bar on stderr (rate and ETA); in a log, a line every 10 s."""
+    from armlab.progress import progress_bar
 
-            def close(self):
-                pass
-        return Silent()
-    return tqdm(total=total, initial=initial, unit="run", desc=label, file=sys.stderr, smoothing=0.1)
+    return progress_bar(total, enabled=enabled, log_every=10.0, initial=initial, unit="run", desc=label,
+                        smoothing=0.1)
 
 
 def _local(spec, store, pending, threads, bar, processes=None) -> dict:

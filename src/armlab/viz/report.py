@@ -27,9 +27,11 @@ from pathlib import Path
 
 import matplotlib.pyplot as plt
 import numpy as np
+from tqdm import tqdm
 
 from armlab.files import write_text
 from armlab.model.robot import Robot
+from armlab.progress import finish, progress_bar
 from armlab.robots import load_robot
 from armlab.simulation.joint_limits import describe_crossing
 from armlab.viz import html
@@ -45,7 +47,6 @@ from armlab.viz.experiments import (  # noqa: F401 — ReportError, assignment_n
 )
 from armlab.viz.metrics import Metric
 from armlab.viz.notes import markdown_html, metric_definitions, seed_notes, source_name
-from armlab.viz.progress import Progress
 from armlab.viz.report_runs import run_all
 from armlab.viz.scopes import SCOPE_DPI, scope_png
 from armlab.viz.view_pages import plotly_js, view_iframe, write_assets, write_view_page
@@ -126,7 +127,7 @@ def _derivation_cache(robot: Robot) -> Path:
     return cache_dir() / "report" / f"derivations_{digest.hexdigest()[:24]}.json"
 
 
-def _cached_symbolic_sections(robot: Robot, progress: Progress) -> dict[int, str]:
+def _cached_symbolic_sections(robot: Robot, progress: tqdm) -> dict[int, str]:
     """:func:`_symbolic_sections`, kept on disk (ARMLAB_CACHE_DIR) after the first report:
     SymPy spends tens of seconds on them, the rest of a ``--quick`` report a few.  A cache
     that cannot be read or written is derived around, never trusted half-written."""
@@ -136,9 +137,8 @@ def _cached_symbolic_sections(robot: Robot, progress: Progress) -> dict[int, str
     try:
         data = json.loads(path.read_text(encoding="utf-8"))
         if isinstance(data, dict) and all(isinstance(v, str) for v in data.values()):
-            progress.step("derivations A1–A5 (cached)")
-            for _ in data:
-                progress.advance()
+            progress.set_postfix_str("derivations A1–A5 (cached)")
+            progress.update(len(data))
             return {int(k): v for k, v in data.items()}
     except (OSError, ValueError):
         pass
@@ -151,7 +151,7 @@ def _cached_symbolic_sections(robot: Robot, progress: Progress) -> dict[int, str
     return sections
 
 
-def _symbolic_sections(robot: Robot, progress: Progress) -> dict[int, str]:
+def _symbolic_sections(robot: Robot, progress: tqdm) -> dict[int, str]:
     """HTML of the A1–A5 derivations by assignment number.
 
     A1 is derived in both Σ_0 and Σ_base (as the seed does), A2–A5 in Σ_0; one symbolic robot
@@ -165,14 +165,14 @@ def _symbolic_sections(robot: Robot, progress: Progress) -> dict[int, str]:
     sr = symbolic_robot(robot)
     out: dict[int, str] = {}
     for key in DERIVED:
-        progress.step(f"deriving {key}")
+        progress.set_postfix_str(f"deriving {key}")
         (section,) = derive(sr, frame="base" if key == "A1" else "0", only=key)
         blocks = [f"<h3>Derivation: {html.escape(section.title)}</h3>"]
         for item in section.items:
             blocks.append(html.math_block(item.label, to_mathml(item.expr)))
         blocks += [f'<p class="note">{html.escape(note)}</p>' for note in section.notes]
         out[int(key[1:])] = "".join(blocks)
-        progress.advance()
+        progress.update()
     return out
 
 
@@ -305,14 +305,14 @@ def build_report(robot: str | Robot = "prp", out_dir: str | Path = "report", *, 
     if quick and experiments is None:
         planned = first_of_each_assignment(planned)
     script = plotly_js() if views else None
-    progress = Progress(len(planned) + 7 + (script is not None), enabled=show_progress)
+    progress = progress_bar(len(planned) + 7 + (script is not None), enabled=show_progress, unit="step")
 
     def here():
         if first is not None:
             first()
-        progress.step("robot drawings")
+        progress.set_postfix_str("robot drawings")
         drawn = _drawings(robot)
-        progress.advance()
+        progress.update()
         try:
             derived = _cached_symbolic_sections(robot, progress)
         except Exception as error:  # a robot SymPy cannot derive still gets its experiments
@@ -341,9 +341,9 @@ def build_report(robot: str | Robot = "prp", out_dir: str | Path = "report", *, 
     workers = (1 if quick else max(1, min(2, os.cpu_count() or 1))) if jobs is None else jobs
     drawings, derivations = run_all(planned, progress, workers, here, start_animation)
     if script is not None:
-        progress.step("3-D views")
+        progress.set_postfix_str("3-D views")
         _write_views(planned, out_dir, script)
-        progress.advance()
+        progress.update()
     bodies: dict[int, list[str]] = {}
     for exp in planned:
         bodies.setdefault(exp.assignment, []).append(_experiment_html(exp))
@@ -352,7 +352,7 @@ def build_report(robot: str | Robot = "prp", out_dir: str | Path = "report", *, 
 
     movie = ""
     if animation:
-        progress.step("animation")
+        progress.set_postfix_str("animation")
         if "thread" in animator:
             animator["thread"].join()
             if "error" in animator:
@@ -360,7 +360,7 @@ def build_report(robot: str | Robot = "prp", out_dir: str | Path = "report", *, 
             movie = animator["html"]
         else:
             movie = _animation(animation_subject(planned, robot.name), out_dir)
-        progress.advance()
+        progress.update()
 
     sections, nav, missing = [], [], []
     for number, title in ASSIGNMENTS.items():
@@ -409,7 +409,7 @@ def build_report(robot: str | Robot = "prp", out_dir: str | Path = "report", *, 
                          frames=any(exp.view for exp in planned))
     path = out_dir / "report.html"
     write_text(path, page)  # atomic: a killed or failed build keeps the previous report
-    progress.close(f"wrote {path} ({path.stat().st_size / 1e6:.1f} MB)")
+    finish(progress, f"wrote {path} ({path.stat().st_size / 1e6:.1f} MB)")
     return path
 
 

@@ -13,6 +13,7 @@ import threading
 import time
 import traceback
 import warnings
+from typing import TYPE_CHECKING
 
 from armlab.errors import ArmlabError
 from armlab.model.robot import Robot
@@ -20,8 +21,10 @@ from armlab.simulation.joint_limits import JointLimitWarning
 from armlab.viz.comparisons import impedance_scope
 from armlab.viz.experiments import Experiment, experiment_from_scenario
 from armlab.viz.metrics import measure
-from armlab.viz.progress import Progress
 from armlab.viz.scopes import SCOPE_DPI, main_scopes, scope_layout, scope_png
+
+if TYPE_CHECKING:
+    from tqdm import tqdm
 
 
 def scope_figures(exp: Experiment) -> list[tuple[str, str, bytes]]:
@@ -145,7 +148,7 @@ def _schedule(planned: list[Experiment]) -> list[Experiment]:
     return first + rest
 
 
-def run_all(planned: list[Experiment], progress: Progress, workers: int, main_job, on_result=None) -> dict:
+def run_all(planned: list[Experiment], progress: tqdm, workers: int, main_job, on_result=None) -> dict:
     """Evaluate every experiment (registry ones in ``workers`` processes) while ``main_job()``
     runs here; ``on_result()`` is called here after each pooled experiment comes back.
     Returns main_job's value."""
@@ -154,9 +157,9 @@ def run_all(planned: list[Experiment], progress: Progress, workers: int, main_jo
     if not pooled:
         value = main_job()
         for exp in local:
-            progress.step(f"running {exp.name}")
+            progress.set_postfix_str(f"running {exp.name}")
             evaluate(exp)
-            progress.advance()
+            progress.update()
         return value
     import multiprocessing
     from concurrent.futures import ProcessPoolExecutor, as_completed
@@ -176,17 +179,18 @@ def run_all(planned: list[Experiment], progress: Progress, workers: int, main_jo
                    for e in _schedule(pooled)}
         value = main_job()
         for exp in local:
-            progress.step(f"running {exp.name}")
+            progress.set_postfix_str(f"running {exp.name}")
             evaluate(exp)
-            progress.advance()
-        progress.step(f"running {len(pooled)} scenarios in {workers} processes (first runs compile)")
+            progress.update()
+        progress.set_postfix_str(f"running {len(pooled)} scenarios in {workers} processes "
+                                 "(first runs compile)")
         for future in as_completed(futures):
             done = future.result()
             target = by_name[futures[future]]
             for key in ("result", "error", "seconds", "metrics", "figures", "robot", "plane"):
                 setattr(target, key, getattr(done, key))
-            progress.step(f"ran {done.name} ({done.seconds:.1f} s)")
-            progress.advance()
+            progress.set_postfix_str(f"ran {done.name} ({done.seconds:.1f} s)")
+            progress.update()
             if on_result is not None:
                 on_result()
     return value
