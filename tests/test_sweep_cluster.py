@@ -61,6 +61,24 @@ def test_dask_table_equals_the_thread_pool_table(tmp_path, cluster):
                                   check_exact=True)
 
 
+def test_chunks_batched_into_dask_tasks_give_the_same_table(tmp_path, cluster, monkeypatch):
+    """A Dask task runs several chunks (``TASKS_PER_THREAD``); each chunk is still written once,
+    and the table is the thread pool's, bit for bit."""
+    from armlab.sweep import runner
+
+    assert runner.batches(list(range(500)), 2) == [list(range(i, min(i + 7, 500))) for i in range(0, 500, 7)]
+    assert runner.batches([3, 4, 9], 2) == [[3], [4], [9]]
+    monkeypatch.setattr(runner, "TASKS_PER_THREAD", 1)
+    assert runner.batches(list(range(12)), 2) == [list(range(6)), list(range(6, 12))]   # 2 tasks
+    spec = spec_of(tmp_path, "batched", chunk=1)
+    dask = sweep(spec, tmp_path / "dask", scheduler=cluster.scheduler_address)
+    threads = sweep(spec_of(tmp_path, "threads", chunk=1), tmp_path / "threads", threads=2)
+    assert dask.counts == {"ok": 12}
+    pd.testing.assert_frame_equal(read_results(dask.folder).to_pandas(),
+                                  read_results(threads.folder).to_pandas(), check_exact=True)
+    assert len(list((tmp_path / "dask" / "runs").glob("part-*.parquet"))) == 12
+
+
 def test_a_worker_killed_mid_sweep_loses_no_run(tmp_path, cluster):
     spec = spec_of(tmp_path, "killed", chunk=1, t_final=0.6, count=12)
     reference = read_results(sweep(spec, tmp_path / "reference", threads=2).folder).to_pandas()

@@ -179,13 +179,37 @@ def _dask_client(scheduler, workers, source):
                                                  "(pip install 'armlab[cluster]')") from None
     if scheduler:
         return Client(scheduler, timeout="20s"), None
-    cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                           dashboard_address=":0")
+    import dask
+
+    # Without the workers' statistical profiler (a stack sample of the task's thread every
+    # 10 ms, for the dashboard's profile page): on runs whose set-up is Python it cost ~4 %
+    # of a 50 000-run sweep (24.2 s against 23.3 s on two workers, alternating).
+    with dask.config.set({"distributed.worker.profile.enabled": False}):
+        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                               dashboard_address=":0")
     return Client(cluster), cluster
 
 
 def _same(value):
     return value
+
+
+TASKS_PER_THREAD = 32
+"""A Dask task runs a batch of consecutive chunks, about this many tasks per worker thread:
+each task costs ~13 ms of scheduling (driver and worker) whatever its size, 8 % of a 200-run
+chunk of 100-step runs; 32 a thread keep the last task's wait at the end short."""
+
+
+def batches(chunks: list[int], threads: int) -> list[list[int]]:
+    """``chunks`` cut into runs of consecutive chunks, about :data:`TASKS_PER_THREAD` batches
+    per worker thread (at least one chunk each)."""
+    size = max(1, len(chunks) // (TASKS_PER_THREAD * max(1, threads)))
+    return [chunks[i:i + size] for i in range(0, len(chunks), size)]
+
+
+def run_chunks(spec: SweepSpec, chunks: list[int]) -> list[tuple[int, dict]]:
+    """[(chunk, :func:`run_chunk`'s columns)] of a batch of chunks (a Dask task)."""
+    return [(chunk, run_chunk(spec, chunk)) for chunk in chunks]
 
 
 def _dask(spec, store, pending, client, bar) -> dict:
@@ -196,21 +220,23 @@ def _dask(spec, store, pending, client, bar) -> dict:
     # it leaves the scheduler able to make it again (scattered data would be lost for good,
     # and with it every task that needs it).
     spec_future = client.submit(_same, spec, key=f"armlab-sweep-spec-{spec.fingerprint()}-{time.time_ns()}")
-    slots = max(2, 2 * sum(client.nthreads().values()))
-    queue = list(reversed(pending))
+    threads = max(1, sum(client.nthreads().values()))
+    slots = 2 * threads
+    queue = batches(pending, threads)[::-1]
     submitted = {}
 
     def submit():
-        chunk = queue.pop()
-        future = client.submit(run_chunk, spec_future, chunk, pure=False,
-                               key=f"armlab-sweep-{spec.fingerprint()}-{chunk}-{time.time_ns()}")
-        submitted[future.key] = chunk
+        batch = queue.pop()
+        future = client.submit(run_chunks, spec_future, batch, pure=False,
+                               key=f"armlab-sweep-{spec.fingerprint()}-{batch[0]}-{time.time_ns()}")
+        submitted[future.key] = batch
         return future
 
     stream = as_completed([submit() for _ in range(min(slots, len(queue)))])
     for future in stream:
-        chunk = submitted.pop(future.key)
-        _store(store, chunk, future.result(), counts, bar)
+        submitted.pop(future.key)
+        for chunk, columns in future.result():
+            _store(store, chunk, columns, counts, bar)
         future.release()
         if queue:
             stream.add(submit())
