@@ -46,6 +46,18 @@ def test_crossing_a_limit_warns_with_joint_and_time():
     assert crossed["d1"]["worst"] == pytest.approx(result.q[:, 0].max() - 0.35)
 
 
+def test_the_warning_points_at_the_users_line_whichever_way_in():
+    """simulate() and a scenario's run() reach the warning through different armlab frames;
+    either way it names the caller's file, not a line of armlab's."""
+    _, caught = _run("warn")
+    assert caught[0].filename == __file__
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        load_scenario("a14_force_inner_position").run()
+    limits = [w for w in caught if issubclass(w.category, JointLimitWarning)]
+    assert limits and all(w.filename == __file__ for w in limits)
+
+
 def test_ignore_says_nothing():
     result, caught = _run("ignore")
     assert not caught and result.meta["joint_limits"] == {"mode": "ignore"}

@@ -28,7 +28,9 @@ Excursions are measured on the logged samples (``log_every`` thins them).
 
 from __future__ import annotations
 
+import inspect
 import warnings
+from pathlib import Path
 
 import numpy as np
 
@@ -42,6 +44,20 @@ STOP_FREQUENCY_STEPS = 0.5
 
 class JointLimitWarning(UserWarning):
     """A simulated joint left its declared limits."""
+
+
+_PACKAGE = str(Path(__file__).resolve().parents[1])
+
+
+def _user_stacklevel() -> int:
+    """``warnings.warn``'s stacklevel, for this function's caller, of the first frame outside
+    armlab: the user's line, however many of armlab's frames lie between (``simulate``, a
+    scenario's ``run``, the cache repair around them)."""
+    frames = inspect.stack(context=0)[1:]
+    for level, frame in enumerate(frames, start=1):
+        if not str(Path(frame.filename).resolve()).startswith(_PACKAGE):
+            return level
+    return len(frames)
 
 
 def check_mode(mode) -> str:
@@ -119,5 +135,6 @@ def annotate(plant, mode: str, t, q, signals: dict, labels: dict, units: dict, m
         record["stop_stiffness"] = np.asarray(stop.stiffness).tolist()
         record["stop_damping"] = np.asarray(stop.damping).tolist()
     meta["joint_limits"] = record
+    level = _user_stacklevel() if found else 1
     for name, c in found.items():
-        warnings.warn(describe_crossing(plant, name, c, mode), JointLimitWarning, stacklevel=5)
+        warnings.warn(describe_crossing(plant, name, c, mode), JointLimitWarning, stacklevel=level)
