@@ -501,7 +501,8 @@ def test_legends_and_notes_sit_right_of_the_panels():
 def test_lyapunov_function_of_a_slotine_li_run_is_drawn_and_never_increases():
     """The A8 figure of V = ½ I σ² + ½ π̃ᵀ Γ⁻¹ π̃ (C6) from σ, π̂, the true π and Γ."""
     from armlab.scenarios import load_scenario
-    from armlab.viz.layout import lyapunov_function, scope_layout
+    from armlab.viz.layout import scope_layout
+    from armlab.viz.theory import lyapunov_function
 
     result = load_scenario("a8_case1_sine").run(t_final=3.0)
     scopes = {s.name: s for s in scope_layout(result)}
@@ -661,7 +662,9 @@ def test_main_scopes_are_the_layouts_figures_of_what_the_controller_is_for(monke
     def no_response(*args, **kwargs):
         raise AssertionError("the designed response was computed")
 
-    monkeypatch.setattr(layout, "linear_response", no_response)
+    from armlab.viz import theory
+
+    monkeypatch.setattr(theory, "linear_response", no_response)
     with pytest.raises(AssertionError, match="designed response"):
         layout.scope_layout(designed)
     assert [s.name for s in layout.main_scopes(designed)] == ["positions", "forces"]

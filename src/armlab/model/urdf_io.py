@@ -44,10 +44,10 @@ import numpy as np
 
 from armlab.inputs import URDF_LIMIT, read_input_bytes
 from armlab.model.inertia import inertia_problem, steiner
-from armlab.model.robot import Friction, Inertial, Joint, Link, Robot, Visual, nonfinite_part
-from armlab.model.shapes import primitive_mesh
+from armlab.model.robot import Friction, Inertial, Joint, Link, Robot, nonfinite_part
 from armlab.model.toml_io import RobotFileError, axis_alignment
 from armlab.model.urdf_check import check_urdf_document
+from armlab.model.visuals import place_visuals
 from armlab.spatial import hom_rot_z, inverse_transform, rpy_from_matrix, trans_z, transform
 
 STANDARD_GRAVITY = np.array([0.0, 0.0, -9.81])
@@ -546,7 +546,7 @@ def robot_from_tree(path, tree_name, tree_links, tree_joints, *, tip=None, gravi
                      f"into the links carrying them: {values}")
     if unset_limits:
         notes.append(f"limits lower = upper read as no limit: {', '.join(unset_limits)}")
-    visuals, missing, unsized = _visuals(path, links, body_of, pose_in_body)
+    visuals, missing, unsized = place_visuals(path, links, body_of, pose_in_body)
     if missing:
         notes.append(f"mesh files not found (those parts are drawn as their inertia shapes): "
                      f"{_listing(missing, 4)}")
@@ -558,63 +558,3 @@ def robot_from_tree(path, tree_name, tree_links, tree_joints, *, tip=None, gravi
                   source=str(path), notes=tuple(notes), tip=tip_link, visuals=tuple(visuals))
     _check_finite(path, robot)
     return robot
-
-
-def _primitive(geometry) -> tuple[str, np.ndarray] | None:
-    """(kind, dimensions) of a ``<box>`` (sides), ``<cylinder>`` (radius, length) or ``<sphere>``
-    (radius) geometry, an attribute not given as NaN; None for other geometries."""
-    for kind, names in (("box", ("size",)), ("cylinder", ("radius", "length")), ("sphere", ("radius",))):
-        shape = getattr(geometry, kind, None)
-        if shape is not None:
-            values = [getattr(shape, name, None) for name in names]
-            return kind, np.concatenate([np.full(3 if kind == "box" else 1, np.nan) if v is None
-                                         else np.ravel(np.asarray(v, dtype=float)) for v in values])
-    return None
-
-
-def _visuals(path, links: dict, body_of: dict,
-             pose_in_body: dict) -> tuple[list[Visual], list[str], list[str]]:
-    """The ``<visual>`` shapes of the file's links placed on the robot's bodies (V1), the mesh
-    references that name no file, and the primitives left out for a size that is not positive.
-
-    A link's ``pose_in_body`` already folds the fixed joints (and locked side branches) between
-    it and the body that carries it, so a shape sits at ``pose_in_body · <visual><origin>``.
-    Mesh names are resolved as ``yourdfpy`` resolves them (``package://`` and paths relative to
-    the file or its parent folders).  A ``<box>``, ``<cylinder>`` or ``<sphere>`` becomes its
-    triangles (:func:`armlab.model.shapes.primitive_mesh`, centred at the origin, axis z); a
-    geometry that carries ``triangles`` (vertices, faces) — an MJCF geom as MuJoCo compiled it,
-    from :mod:`armlab.model.mjcf_io` — is kept as it is.
-    """
-    import yourdfpy
-
-    folder = str(Path(path).resolve().parent)
-    visuals, missing, unsized = [], [], []
-    for link_name, body in body_of.items():
-        for visual in getattr(links[link_name], "visuals", None) or ():
-            geometry = visual.geometry
-            if geometry is None:
-                continue
-            origin = np.eye(4) if visual.origin is None else np.asarray(visual.origin, dtype=float)
-            pose = pose_in_body[link_name] @ origin
-            triangles, primitive = getattr(geometry, "triangles", None), _primitive(geometry)
-            if primitive is not None:
-                kind, dimensions = primitive
-                if not np.all(dimensions > 0):   # NaN too: an attribute not given
-                    unsized.append(f"{link_name}: {kind}")
-                    continue
-                triangles = primitive_mesh(kind, dimensions)
-            if triangles is not None:
-                visuals.append(Visual(body=body, pose=pose, part=link_name, vertices=triangles[0],
-                                      faces=triangles[1]))
-                continue
-            mesh = getattr(geometry, "mesh", None)
-            if mesh is None or not mesh.filename:
-                continue
-            resolved = Path(yourdfpy.filename_handler_magic(mesh.filename, dir=folder))
-            if not resolved.is_file():
-                missing.append(f"{link_name}: {mesh.filename}")
-                continue
-            scale = np.ones(3) if mesh.scale is None else np.broadcast_to(
-                np.asarray(mesh.scale, dtype=float), (3,))
-            visuals.append(Visual(body=body, pose=pose, mesh=str(resolved), scale=scale, part=link_name))
-    return visuals, missing, unsized

@@ -19,8 +19,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from armlab.viz.layout import ACTUAL, COMMAND, LIMIT, THEORY, Panel, Scope, designed_error, pretty
-from armlab.viz.theory import initial_rate, linear_response
+from armlab.viz.layout import ACTUAL, COMMAND, LIMIT, THEORY, Panel, Scope, pretty
+from armlab.viz.theory import designed_error, initial_rate, linear_response
 
 
 @dataclass(frozen=True)

@@ -39,12 +39,10 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from armlab.metrics import FORCE_REFERENCES
-from armlab.viz.theory import linear_response
+from armlab.viz.theory import designed_error, lyapunov_function
 
 ACTUAL, DESIRED, LIMIT, COMMAND, COMPLIANT = "#1f5fd6", "#222222", "#d62728", "#f09030", "#2ca02c"
 THEORY, REST = "#9467bd", "#8c564b"  # a response the theory predicts; the environment's rest pose
-# Controllers whose error obeys q̃̈ + K_D q̃̇ + K_P q̃ = 0 with an exact model (A7).
-COMPUTED_TORQUE = ("JointInverseDynamics",)
 # Traces of one panel differ in colour, dash and width, widest first: a trace drawn over an
 # identical one (σ1 = σ2 = 1) leaves the one below visible around its dashes.
 TRACE_COLOURS = ("#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b")
@@ -306,26 +304,6 @@ def _error_scopes(run: _Run) -> list[Scope]:
     return scopes
 
 
-def designed_error(result) -> np.ndarray | None:
-    """q̃(t) (N, n) of the designed loop q̃̈ + K_D q̃̇ + K_P q̃ = 0 from the run's initial error,
-    for a computed-torque run that logged q̃ and q̃̇ (None otherwise)."""
-    controller = result.meta.get("controller")
-    controller = controller if isinstance(controller, dict) else {}
-    if controller.get("type") not in COMPUTED_TORQUE or not {"q_err", "qd_err"} <= set(result.signals):
-        return None
-    kp, kd = controller.get("kp"), controller.get("kd")
-    error, rate = result.signals["q_err"], result.signals["qd_err"]
-    if kp is None or kd is None or error.shape != rate.shape:
-        return None
-    n = error.shape[1]
-    try:
-        K, D = (np.broadcast_to(np.asarray(g, dtype=float), (n, n)) if np.ndim(g) == 2
-                else np.diag(np.broadcast_to(np.asarray(g, dtype=float), (n,))) for g in (kp, kd))
-    except ValueError:
-        return None
-    return linear_response(np.eye(n), D, K, np.asarray(result.t), error[0], rate[0])
-
-
 # ----------------------------------------------------------------------------- torques
 
 
@@ -493,33 +471,6 @@ def _estimate_scopes(run: _Run) -> list[Scope]:
         title += ", and Y(π̂ − π)"
     scopes.append(Scope("estimates", title, panels, caption=caption))
     return scopes
-
-
-def lyapunov_function(result) -> dict[str, np.ndarray] | None:
-    """V = ½ I σ² + ½ π̃ᵀ Γ⁻¹ π̃ (π̃ = π̂ − π) of a run of the 1-DoF Slotine–Li law (C6), with
-    its two terms: ``{"V", "kinetic", "parameters"}`` (N,) [J]; None for other runs.
-
-    I and π are the plant's true parameters (``meta["true_parameters"]``), Γ the controller's
-    adaptation gain and π̂ its state; a plant with terms outside Y π (the wrong plants) makes
-    V a function that may grow.
-    """
-    controller = result.meta.get("controller")
-    true_values = result.meta.get("true_parameters")
-    if not (isinstance(controller, dict) and controller.get("type") == "SlotineLi1DoF"):
-        return None
-    if true_values is None or "sigma" not in result.signals or "gamma" not in controller:
-        return None
-    true_values = np.asarray(true_values, dtype=float)
-    gamma = np.asarray(controller["gamma"], dtype=float)
-    if gamma.ndim == 1:
-        gamma = np.diag(gamma)
-    if true_values.shape != (3,) or gamma.shape != (3, 3) or result.z.shape[1] != 3:
-        return None
-    sigma = result.signals["sigma"][:, 0]
-    error = result.z - true_values
-    kinetic = 0.5 * true_values[0] * sigma**2
-    parameters = 0.5 * np.einsum("ij,jk,ik->i", error, np.linalg.inv(gamma), error)
-    return {"V": kinetic + parameters, "kinetic": kinetic, "parameters": parameters}
 
 
 def _lyapunov_scopes(run: _Run) -> list[Scope]:
