@@ -223,18 +223,15 @@ def _dask(spec, store, pending, client, bar) -> dict:
     threads = max(1, sum(client.nthreads().values()))
     slots = 2 * threads
     queue = batches(pending, threads)[::-1]
-    submitted = {}
 
     def submit():
         batch = queue.pop()
-        future = client.submit(run_chunks, spec_future, batch, pure=False,
-                               key=f"armlab-sweep-{spec.fingerprint()}-{batch[0]}-{time.time_ns()}")
-        submitted[future.key] = batch
-        return future
+        return client.submit(run_chunks, spec_future, batch, pure=False,
+                             key=f"armlab-sweep-{spec.fingerprint()}-{batch[0]}-{time.time_ns()}")
 
     stream = as_completed([submit() for _ in range(min(slots, len(queue)))])
     for future in stream:
-        submitted.pop(future.key)
+        # Each result names its chunks: nothing to remember per task.
         for chunk, columns in future.result():
             _store(store, chunk, columns, counts, bar)
         future.release()
@@ -247,10 +244,10 @@ PROCESS_RUNS = 2000
 """From this many runs on, a sweep with no executor chosen runs on one local process per core.
 
 Each run's set-up and metrics are Python (about 0.8 ms for a 100-step PD run, against 0.05 ms
-in the compiled loop) and hold the GIL: threads then overlap little (1.3 runs for 1 on two
-cores, ``benchmarks/bench_sweep.py``), processes do not share it.  A spawned process costs
-about two seconds before its first run (importing armlab, loading the compiled code), which a
-sweep of a few hundred runs does not earn back."""
+in the compiled loop) and hold the GIL: two threads then convoy on it and run fewer runs a
+second than one (780 against 1168, ``benchmarks/bench_sweep.py``); processes do not share it.
+A spawned process costs about two seconds before its first run (importing armlab, loading the
+compiled code), which a sweep of a few hundred runs does not earn back."""
 
 
 def default_processes(n_runs: int) -> int | None:
