@@ -356,41 +356,49 @@ def check_state(fn, pp, x, n, q_lo, q_hi, ke_max, check_energy, q, qd):
 
 
 @njit(cache=True, inline="always")
-def log_row(row, t, x, n, sc, out, layout):
-    """Row ``row`` of the flat log ``out`` (blocks of :func:`log_columns`) from x and stage k₁.
+def log_offsets(n, k, s, out, layout):
+    """Where the blocks of the flat log ``out`` begin (:func:`log_columns`), once per run:
+    (R, w_cmd, w_dist, w_he, then the first index of q, q̇, q̈, τ, z, the signals, τ_cmd, τ_d
+    and h_e)."""
+    w_cmd, w_dist, w_he = layout[0] * n, layout[1] * n, layout[2] * 6
+    R = out.shape[0] // (1 + 4 * n + k + s + w_cmd + w_dist + w_he)
+    return (R, w_cmd, w_dist, w_he, R, R * (1 + n), R * (1 + 2 * n), R * (1 + 3 * n), R * (1 + 4 * n),
+            R * (1 + 4 * n + k), R * (1 + 4 * n + k + s), R * (1 + 4 * n + k + s + w_cmd),
+            R * (1 + 4 * n + k + s + w_cmd + w_dist))
+
+
+@njit(cache=True, inline="always")
+def log_row(row, t, x, n, sc, out, layout, at):
+    """Row ``row`` of the flat log ``out`` (blocks of :func:`log_columns`, beginning at ``at``
+    of :func:`log_offsets`) from x and stage k₁.
 
     ``layout`` = [cmd, dist, h_e, w_0, w_1, …] (:func:`log_layout`): whether τ_cmd, τ_d and h_e
     are logged, then the width of each signal; the signal block holds one (R, w_j) block per
     signal (:func:`log_views`)."""
     tau_c, tau_a, tau_d, h_e, sig, qdd = sc[3], sc[4], sc[5], sc[7], sc[9], sc[13]
     k = sc[2].shape[0]
-    s = sig.shape[0]
-    w_cmd, w_dist, w_he = layout[0] * n, layout[1] * n, layout[2] * 6
-    R = out.shape[0] // (1 + 4 * n + k + s + w_cmd + w_dist + w_he)
+    R, w_cmd, w_dist, w_he = at[0], at[1], at[2], at[3]
     out[row] = t
-    q_at, qd_at = R + row * n, R * (1 + n) + row * n
-    qdd_at, tau_at = R * (1 + 2 * n) + row * n, R * (1 + 3 * n) + row * n
-    z_at, sig_at = R * (1 + 4 * n) + row * k, R * (1 + 4 * n + k)
-    cmd_at = R * (1 + 4 * n + k + s) + row * w_cmd
-    dist_at = R * (1 + 4 * n + k + s + w_cmd) + row * w_dist
-    he_at = R * (1 + 4 * n + k + s + w_cmd + w_dist) + row * w_he
+    q_at, qd_at, qdd_at, tau_at = at[4] + row * n, at[5] + row * n, at[6] + row * n, at[7] + row * n
     for i in range(n):
         out[q_at + i] = x[i]
         out[qd_at + i] = x[n + i]
         out[qdd_at + i] = qdd[i]
         out[tau_at + i] = tau_a[i]
+    cmd_at, dist_at, he_at = at[10] + row * w_cmd, at[11] + row * w_dist, at[12] + row * w_he
     for i in range(w_cmd):
         out[cmd_at + i] = tau_c[i]
     for i in range(w_dist):
         out[dist_at + i] = tau_d[i]
+    z_at = at[8] + row * k
     for i in range(k):
         out[z_at + i] = x[2 * n + i]
     start = 0
     for j in range(3, layout.shape[0]):
         width = layout[j]
-        at = sig_at + R * start + row * width
+        sig_at = at[9] + R * start + row * width
         for i in range(width):
-            out[at + i] = sig[start + i]
+            out[sig_at + i] = sig[start + i]
         start += width
     for i in range(w_he):
         out[he_at + i] = h_e[i]
@@ -415,6 +423,7 @@ def rk4_core(fn, pp, cp, ep, dist, x, work, fset, iset, lim, q_lo, q_hi, out):
     k = m - 2 * n
     sc = scratch_views(work, n, k, iset[7])
     layout = iset[8:]
+    at = log_offsets(n, k, iset[7], out, layout)
     zdot, xt, K = sc[8], sc[14], sc[15]
     z_rate = 0.0 if sampled else 1.0
     period = every * dt
@@ -439,7 +448,7 @@ def rk4_core(fn, pp, cp, ep, dist, x, work, fset, iset, lim, q_lo, q_hi, out):
                            sample if s == 0 else not sampled, z_rate, lim, sc, K[s], work)
             if s == 0:
                 if j % log_every == 0:
-                    log_row(rows, t, x, n, sc, out, layout)
+                    log_row(rows, t, x, n, sc, out, layout, at)
                     rows += 1
                 if status != 0:
                     return 4, rows, j, -1
@@ -487,11 +496,14 @@ def log_core(fn, ts, xs, pp, cp, ep, dist, has_env, call_law, lim, work, layout,
     fn, ts, xs, pp, dist, lim, work, layout, out = borrowed(
         (fn, ts, xs, pp, dist, lim, work, layout, out))
     n = int(pp[0])
-    sc = scratch_views(work, n, xs.shape[1] - 2 * n, layout[3:].sum())
+    k = xs.shape[1] - 2 * n
+    s = layout[3:].sum()
+    sc = scratch_views(work, n, k, s)
+    at = log_offsets(n, k, s, out, layout)
     xdot = sc[15][0]
     for r in range(ts.shape[0]):
         stage(fn, ts[r], xs[r], n, pp, cp, ep, dist, has_env, call_law, 1.0, lim, sc, xdot, work)
-        log_row(start + r, ts[r], xs[r], n, sc, out, layout)
+        log_row(start + r, ts[r], xs[r], n, sc, out, layout, at)
 
 
 _CORE_TYPES = {
