@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 import armlab
-from armlab.metrics import overshoot, settling_time, steady_state
+from armlab.metrics import overshoot, response, settling_time, steady_state, tail_slice
 from armlab.scenarios import load_scenario
 from armlab.theory import (
     compliance_equilibrium,
@@ -50,6 +50,41 @@ def test_overshoot_of_a_second_order_step(zeta):
     assert overshoot(T, e) == pytest.approx(expected, rel=1e-3)
     assert overshoot(T, np.exp(-T / 0.5)) < 1e-6   # monotone (e_∞ is a window mean: ~1e-9 off)
     assert overshoot(T, T * np.exp(-T)) is None     # starts at rest: not a step response
+
+
+def _by_definition(t, e, band=0.02):
+    """Settling time and overshoot of one component, written out sample by sample."""
+    window = e[tail_slice(t)]
+    final = sum(window) / len(window)
+    deviation = [abs(value - final) for value in e]
+    peak = max(deviation)
+    settle = float(t[0])
+    for i in range(len(e) - 1, -1, -1):
+        if deviation[i] > band * peak:
+            settle = None if i == len(e) - 1 else float(t[i + 1])
+            break
+    start = e[0] - final
+    over = None
+    if start != 0.0 and abs(start) >= peak * (1 - 1e-9):
+        over = 100.0 * max(0.0, max(-np.sign(start) * (value - final) for value in e)) / abs(start)
+    return settle, over
+
+
+def test_components_measured_together_as_each_alone_and_by_definition():
+    rng = np.random.default_rng(7)
+    t = np.linspace(0.0, 2.0, 401)
+    decay = np.exp(-t[:, None] * rng.uniform(1.0, 8.0, 4)) * np.cos(t[:, None] * rng.uniform(0.0, 9.0, 4))
+    e = np.column_stack([decay, 0.3 + 0.0 * t, t * np.exp(-t), rng.normal(size=t.size).cumsum()])
+    together = response(t, e)
+    for k in range(e.shape[1]):
+        alone = response(t, e[:, k].copy())
+        for name in together._fields:
+            assert np.array_equal(getattr(together, name)[k:k + 1], getattr(alone, name), equal_nan=True), name
+        settle, over = _by_definition(t, e[:, k])
+        assert settling_time(t, e[:, k]) == settle
+        assert (overshoot(t, e[:, k]) is None) == (over is None)
+        if over is not None:
+            assert overshoot(t, e[:, k]) == pytest.approx(over, rel=1e-12, abs=1e-12)
 
 
 def test_the_seeds_a7_mismatch_settles_at_its_equilibrium():

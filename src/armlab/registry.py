@@ -56,6 +56,7 @@ def scenario_type(name: str, *, poses: dict[str, tuple[str, str]] | None = None)
             raise TypeError(f"@scenario_type({name!r}): {cls.__qualname__} is not a dataclass "
                             "(put @scenario_type above @dataclass)")
         _DECLARED[cls] = ScenarioType(name, cls, dict(poses or {}))
+        _BY_BASE.clear()
         return cls
 
     return register
@@ -66,9 +67,21 @@ def declared(cls: type) -> ScenarioType | None:
     return _DECLARED.get(cls)
 
 
+_BY_BASE: dict[type, dict[str, ScenarioType]] = {}
+"""scenario_types() per base class, until the next declaration (a scenario file asks for
+them seven times)."""
+
+
 def scenario_types(base: type) -> dict[str, ScenarioType]:
     """The registered subclasses of ``base`` (``base`` included) by name, in the order they
     were declared."""
+    found = _BY_BASE.get(base)
+    if found is None:
+        found = _BY_BASE[base] = _scenario_types(base)
+    return dict(found)
+
+
+def _scenario_types(base: type) -> dict[str, ScenarioType]:
     found: dict[str, ScenarioType] = {}
     for cls, declaration in _DECLARED.items():
         if not issubclass(cls, base):

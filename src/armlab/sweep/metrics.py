@@ -41,7 +41,7 @@ import math
 
 import numpy as np
 
-from armlab.metrics import FORCE_REFERENCES, overshoot, settling_time, steady_state, tail_slice
+from armlab.metrics import FORCE_REFERENCES, response, tail_slice
 
 PARAMETER_BAND = 0.05
 FLOOR = 1e-9
@@ -87,23 +87,15 @@ def tracking_error(result) -> tuple[np.ndarray | None, np.ndarray | None]:
 
 def _error_metrics(t, e, e_p) -> dict:
     tail = tail_slice(t)
-    settle, overshoots, finals, ranges = [], [], [], []
-    for k in range(e.shape[1]):
-        final, _, peak_to_peak = steady_state(t, e[:, k])
-        finals.append(abs(final))
-        ranges.append(peak_to_peak)
-        if np.max(np.abs(e[:, k] - final)) <= FLOOR:
-            settle.append(float(t[0]))  # constant up to round-off
-            continue
-        settle.append(settling_time(t, e[:, k]))
-        over = overshoot(t, e[:, k])
-        if over is not None:
-            overshoots.append(over)
+    r = response(t, e)
+    moving = ~(r.deviation <= FLOOR)            # else constant up to round-off: settled at t₀
+    settle = np.where(moving, r.settling_time, float(t[0]))
+    overshoots = r.overshoot[moving & ~np.isnan(r.overshoot)]
     return {
-        "settling_time": math.nan if any(s is None for s in settle) else float(max(settle)),
-        "overshoot": float(max(overshoots)) if overshoots else math.nan,
-        "steady_state_error": float(max(finals)),
-        "oscillation": float(max(ranges)),
+        "settling_time": math.nan if np.isnan(settle).any() else float(settle.max()),
+        "overshoot": float(overshoots.max()) if overshoots.size else math.nan,
+        "steady_state_error": float(np.abs(r.final).max()),
+        "oscillation": float(r.peak_to_peak.max()),
         "rms_error": float(np.sqrt(np.mean(np.sum(e ** 2, axis=1)))),
         "max_error": float(np.max(np.abs(e))),
         "position_error": math.nan if e_p is None else float(np.linalg.norm(e_p[tail].mean(axis=0))),

@@ -23,7 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from armlab.metrics import WINDOW, overshoot, settling_time, steady_state, tail_slice, time_at_limit
+from armlab.metrics import WINDOW, response, tail_slice, time_at_limit
 from armlab.viz.layout import FORCE_REFERENCES, pretty
 
 
@@ -56,18 +56,20 @@ def measure(result, predicted=()) -> list[Metric]:
     for name, data in result.signals.items():
         if not name.endswith("_err"):
             continue
+        r = response(t, data)
         for k, label in enumerate(result.labels[name]):
             unit = result.units[name][k]
             component = pretty(label)
-            final, rms, _ = steady_state(t, data[:, k])
-            rows.append(Metric(f"steady-state {pretty(name)} (mean, last 5 %)", component, final, unit))
-            rows.append(Metric(f"oscillation of {pretty(name)} (RMS, last 5 %)", component, rms, unit))
-            ts = settling_time(t, data[:, k])
+            rows.append(Metric(f"steady-state {pretty(name)} (mean, last 5 %)", component,
+                               float(r.final[k]), unit))
+            rows.append(Metric(f"oscillation of {pretty(name)} (RMS, last 5 %)", component,
+                               float(r.rms[k]), unit))
+            ts = float(r.settling_time[k])
+            settled = not np.isnan(ts)
             rows.append(Metric(f"settling time (2 % band about the final value) of {pretty(name)}",
-                               component, "not settled" if ts is None else ts, "" if ts is None else "s"))
-            over = overshoot(t, data[:, k])
-            if over is not None:
-                rows.append(Metric(f"overshoot of {pretty(name)}", component, over, "%"))
+                               component, ts if settled else "not settled", "s" if settled else ""))
+            if not np.isnan(r.overshoot[k]):
+                rows.append(Metric(f"overshoot of {pretty(name)}", component, float(r.overshoot[k]), "%"))
             rows.append(Metric(f"RMS {pretty(name)} (2nd half)", component,
                                float(np.sqrt(np.mean(data[half, k] ** 2))), unit))
     limit = result.meta.get("torque_limit")
