@@ -243,11 +243,13 @@ def _dask(spec, store, pending, client, bar) -> dict:
 PROCESS_RUNS = 2000
 """From this many runs on, a sweep with no executor chosen runs on one local process per core.
 
-Each run's set-up and metrics are Python (about 0.8 ms for a 100-step PD run, against 0.05 ms
-in the compiled loop) and hold the GIL: two threads then convoy on it and run fewer runs a
-second than one (780 against 1168, ``benchmarks/bench_sweep.py``); processes do not share it.
-A spawned process costs about two seconds before its first run (importing armlab, loading the
-compiled code), which a sweep of a few hundred runs does not earn back."""
+Each run's set-up and metrics are Python (about 0.55 ms for a 100-step PD run, against
+0.05 ms in the compiled loop) and hold the GIL: two threads then convoy on it and run fewer
+runs a second than one (988 against 1502, ``benchmarks/bench_sweep.py``); processes do not
+share it.  A spawned process costs about a second before its first run (importing armlab,
+loading the compiled code), which a sweep of a few hundred runs does not earn back (of 100-step
+PD runs on two cores: 500 runs 1.05 s on two processes, 0.36 s on two threads; 2000 runs
+1.44 s against 1.71 s)."""
 
 
 def default_processes(n_runs: int) -> int | None:
