@@ -7,7 +7,7 @@ each run, every run measured and written to Parquet as ``armlab sweep`` does.
 
 * **one thread**: :data:`SINGLE_RUNS` runs on ``threads=1`` (the steady per-run rate; a
   tenth of the sweep keeps ``make bench`` within minutes);
-* **threads**: :data:`RUNS` runs on every core (``threads=None``);
+* **threads**: :data:`RUNS` runs on a thread per core (``threads=`` the number of cores);
 * **processes**: :data:`RUNS` runs on one spawned local process per core (``processes=``);
 * **Dask**: :data:`RUNS` runs on a local ``dask.distributed`` cluster of one single-threaded
   worker process per core (skipped with a message without the ``cluster`` extra);
@@ -198,7 +198,7 @@ def check_agreement(runs=8, dask=True) -> list[str]:
         reference = read_results(sweep(spec_of(folder, runs, chunk=1, t_final=0.02, name="one"),
                                        folder / "one", threads=1).folder)
         compared = ["1 thread"]
-        others = [("threads", dict(threads=None), 3)]
+        others = [("threads", dict(threads=2), 3)]
         if dask and dask_available():
             others.append(("dask", dict(workers=2), 2))
         for name, executor, chunk in others:

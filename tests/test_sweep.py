@@ -251,17 +251,28 @@ def test_table_is_identical_whatever_the_threads_processes_and_chunks(tmp_path):
     assert list(reference["run"]) == list(range(6))
 
 
-def test_a_large_sweep_with_no_executor_chosen_runs_on_processes(monkeypatch, tmp_path):
+def test_with_no_executor_chosen_large_sweeps_run_on_processes_short_runs_on_one_thread(monkeypatch, tmp_path):
     from armlab.sweep import runner
 
+    spec = small(tmp_path, "chunk_size = 3")
+    steps = runner.joint_steps(spec)
+    from armlab.scenarios import load_scenario
+
+    assert steps == 3 * round(0.05 / load_scenario("a7_id_high_gain").simulation["dt"])   # PRP, [set]
     monkeypatch.setattr(runner.os, "cpu_count", lambda: 2)
-    assert runner.default_processes(runner.PROCESS_RUNS) == 2
-    assert runner.default_processes(runner.PROCESS_RUNS - 1) is None      # threads
+    monkeypatch.setattr(runner, "PROCESS_RUNS", spec.n_runs)
+    assert runner.default_executor(spec) == (2, 2)                       # processes
+    monkeypatch.setattr(runner, "PROCESS_RUNS", spec.n_runs + 1)
+    monkeypatch.setattr(runner, "THREAD_JOINT_STEPS", steps + 1)
+    assert runner.default_executor(spec) == (1, None)                    # short runs: one thread
+    monkeypatch.setattr(runner, "THREAD_JOINT_STEPS", steps)
+    assert runner.default_executor(spec) == (2, None)                    # long runs: every core
     monkeypatch.setattr(runner.os, "cpu_count", lambda: 1)
-    assert runner.default_processes(10**6) is None
-    # What sweep() does with it: a small sweep and no executor runs on threads.
-    outcome = sweep(small(tmp_path, "chunk_size = 3"), tmp_path / "out")
-    assert outcome.executor.endswith("local threads")
+    monkeypatch.setattr(runner, "PROCESS_RUNS", 1)
+    assert runner.default_executor(spec) == (1, None)
+    # What sweep() does with it.
+    outcome = sweep(spec, tmp_path / "out")
+    assert outcome.executor == "1 local thread"
 
 
 # ---------------------------------------------------------------------------- the store

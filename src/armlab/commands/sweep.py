@@ -10,14 +10,15 @@ def register(subparsers) -> None:
         "sweep", help="run a sweep or Monte Carlo file over a scenario (see docs/sweeps.md)",
         description="Run every run of the sweep FILE (a bundled sweep name or a sweep .toml file) and "
                     "write one row per run (parameters, status, metrics) to the Parquet dataset "
-                    "DIR/runs.  Runs on a local thread per core by default (a local process per core "
-                    "from 2000 runs on; choose with --threads or --processes), "
+                    "DIR/runs.  Runs locally by default: a process per core from 2000 runs on, else a "
+                    "thread per core for long runs and one thread for short ones (choose with "
+                    "--threads or --processes), "
                     "on a Dask cluster with --scheduler "
                     "or --workers.  An interrupted sweep started again with the same --out resumes "
                     "where it stopped.")
     parser.add_argument("sweep", metavar="FILE", nargs="?", help="bundled sweep name or sweep .toml file")
     parser.add_argument("--out", metavar="DIR", help="output folder (default: sweeps/<name>)")
-    parser.add_argument("--threads", type=int, metavar="N", help="local threads (default: every core)")
+    parser.add_argument("--threads", type=int, metavar="N", help="N local threads")
     parser.add_argument("--processes", type=int, metavar="N",
                         help="N local worker processes instead of threads (for many short runs)")
     parser.add_argument("--workers", type=int, metavar="N",

@@ -11,9 +11,10 @@ Executors:
 
 * local processes (``processes=N``): a pool of N spawned worker processes, nothing shared;
   each loads the compiled code from numba's disk cache once.  For many short runs.
-* local threads (default): a thread pool of ``threads`` threads (default: every core).  The compiled
-  loop releases the GIL, so the runs of different threads overlap; each run's set-up (reading
-  its tables, the controller's parameters) is Python and holds it.
+* local threads (``threads=N``; with no executor chosen, below :data:`PROCESS_RUNS` runs: one
+  per core for long runs, one for short ones, :func:`default_executor`).  The compiled loop
+  releases the GIL, so the runs of different threads overlap; each run's set-up (reading its
+  tables, the controller's parameters, the metrics) is Python and holds it.
 * Dask (``scheduler="tcp://host:8786"`` for a running cluster, or ``workers=N`` to start a
   local cluster of N single-threaded worker processes): each chunk is a task.  A worker loads
   the compiled loop and laws from numba's disk cache the first time it needs them and keeps
@@ -244,20 +245,44 @@ PROCESS_RUNS = 2000
 """From this many runs on, a sweep with no executor chosen runs on one local process per core.
 
 Each run's set-up and metrics are Python (about 0.55 ms for a 100-step PD run, against
-0.05 ms in the compiled loop) and hold the GIL: two threads then convoy on it and run fewer
-runs a second than one (988 against 1502, ``benchmarks/bench_sweep.py``); processes do not
-share it.  A spawned process costs about a second before its first run (importing armlab,
-loading the compiled code), which a sweep of a few hundred runs does not earn back (of 100-step
-PD runs on two cores: 500 runs 1.05 s on two processes, 0.36 s on two threads; 2000 runs
-1.44 s against 1.71 s)."""
+0.05 ms in the compiled loop) and hold the GIL; processes do not share it.  A spawned process
+costs about a second before its first run (importing armlab, loading the compiled code),
+which a sweep of a few hundred runs does not earn back (100-step PD runs of the PRP on two
+cores: 500 runs 1.2 s on two processes, 0.46 s on one thread; 6000 runs 3.05 s against
+3.9 s)."""
+
+THREAD_JOINT_STEPS = 3000
+"""Joint-steps (steps × joints) of a run from which a sweep with no executor chosen runs on a
+thread per core rather than on one.
+
+The threads overlap only in the compiled loops; the set-ups, which hold the GIL, run one at
+a time, and threads that wait for it cost more than they overlap when the loop is short
+(PRP PD runs on two cores, ms a run on one thread / on two: 300 joint-steps 0.64 / 0.91,
+1500 0.94 / 1.13, 3000 1.20 / 1.13, 6000 1.73 / 1.25, 12000 2.70 / 2.03)."""
 
 
-def default_processes(n_runs: int) -> int | None:
-    """The number of local processes a sweep of ``n_runs`` with no executor chosen runs on:
-    one per core from :data:`PROCESS_RUNS` runs on a machine with several cores, else None
-    (local threads)."""
+def default_executor(spec: SweepSpec) -> tuple[int, int | None]:
+    """(threads, processes) of a sweep with no executor chosen: one local process per core
+    from :data:`PROCESS_RUNS` runs on (on a machine with several cores), else local threads —
+    one per core for runs of :data:`THREAD_JOINT_STEPS` joint-steps or more (those of the
+    first run), one for shorter runs."""
     cores = os.cpu_count() or 1
-    return cores if cores > 1 and n_runs >= PROCESS_RUNS else None
+    if cores > 1 and spec.n_runs >= PROCESS_RUNS:
+        return cores, cores
+    return (cores if joint_steps(spec) >= THREAD_JOINT_STEPS else 1), None
+
+
+def joint_steps(spec: SweepSpec) -> int:
+    """Steps × joints of the sweep's first run (:data:`THREAD_JOINT_STEPS` if it cannot be
+    built: its row will say why)."""
+    from armlab.scenarios import scenario_from_table
+
+    try:
+        scenario = scenario_from_table(spec.table(0)[1], spec.scenario_file)
+        settings = scenario.simulation
+        return scenario.plant.n * round(float(settings["t_final"]) / float(settings["dt"]))
+    except (ArmlabError, ValueError, ArithmeticError, KeyError, TypeError):
+        return THREAD_JOINT_STEPS
 
 
 def sweep(spec, out, *, threads: int | None = None, processes: int | None = None,
@@ -269,8 +294,9 @@ def sweep(spec, out, *, threads: int | None = None, processes: int | None = None
     Executor: ``scheduler`` (a Dask scheduler address) or ``workers`` (start a local Dask
     cluster of that many processes), else — and unless the file's ``[cluster]`` table says
     otherwise — ``processes`` local worker processes, or ``threads`` local threads.  With none
-    of them: one local process per core from :data:`PROCESS_RUNS` runs on, else a thread per
-    core (:func:`default_processes`).  Chunks already in ``out``
+    of them: one local process per core from :data:`PROCESS_RUNS` runs on, else local threads,
+    one per core for long runs and one for short ones (:func:`default_executor`).  Chunks
+    already in ``out``
     from an interrupted run of the same sweep are kept (``overwrite`` starts afresh).
     ``progress`` shows a progress bar on stderr; ``log`` (a text stream) gets the executor's
     description and the Dask dashboard address.
@@ -282,7 +308,7 @@ def sweep(spec, out, *, threads: int | None = None, processes: int | None = None
         scheduler, workers = cluster.get("scheduler"), cluster.get("workers")
         threads, processes = cluster.get("threads"), cluster.get("processes")
     if scheduler is None and workers is None and threads is None and processes is None:
-        processes = default_processes(spec.n_runs)
+        threads, processes = default_executor(spec)
     for name, value in (("threads", threads), ("processes", processes), ("workers", workers)):
         if value is not None and (isinstance(value, bool) or not isinstance(value, int) or value < 1):
             raise SweepFileError(spec.source, f"cluster.{name}",
@@ -315,8 +341,9 @@ def sweep(spec, out, *, threads: int | None = None, processes: int | None = None
             if local_cluster is not None:
                 local_cluster.close()
     else:
+        count = threads or os.cpu_count() or 1
         executor = (f"{processes} local processes" if processes
-                    else f"{threads or os.cpu_count()} local threads")
+                    else f"{count} local thread{'s' if count > 1 else ''}")
         if log is not None:
             print(f"{spec.name}: {spec.n_runs} runs in {spec.n_chunks} chunks on {executor}", file=log,
                   flush=True)
