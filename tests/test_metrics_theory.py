@@ -79,7 +79,8 @@ def test_components_measured_together_as_each_alone_and_by_definition():
     for k in range(e.shape[1]):
         alone = response(t, e[:, k].copy())
         for name in together._fields:
-            assert np.array_equal(getattr(together, name)[k:k + 1], getattr(alone, name), equal_nan=True), name
+            column, single = getattr(together, name)[k:k + 1], getattr(alone, name)
+            assert np.array_equal(column, single, equal_nan=True), name
         settle, over = _by_definition(t, e[:, k])
         assert settling_time(t, e[:, k]) == settle
         assert (overshoot(t, e[:, k]) is None) == (over is None)

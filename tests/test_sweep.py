@@ -251,7 +251,7 @@ def test_table_is_identical_whatever_the_threads_processes_and_chunks(tmp_path):
     assert list(reference["run"]) == list(range(6))
 
 
-def test_with_no_executor_chosen_large_sweeps_run_on_processes_short_runs_on_one_thread(monkeypatch, tmp_path):
+def test_unchosen_executor_large_sweeps_on_processes_short_runs_on_one_thread(monkeypatch, tmp_path):
     from armlab.sweep import runner
 
     spec = small(tmp_path, "chunk_size = 3")
