@@ -46,6 +46,22 @@ def test_crossing_a_limit_warns_with_joint_and_time():
     assert crossed["d1"]["worst"] == pytest.approx(result.q[:, 0].max() - 0.35)
 
 
+def test_crossings_are_found_whatever_else_the_log_holds():
+    from armlab.simulation.joint_limits import crossings
+
+    t = np.arange(6) * DT
+    inside = np.tile([0.1, 0.3, 0.1], (6, 1))
+    assert crossings(PRP, t, inside) == {}
+    assert crossings(PRP, t[:0], inside[:0]) == {}
+    below = inside.copy()
+    below[3, 2] = -0.2                                   # d3 under its lower limit −0.15 m
+    found = crossings(PRP, t, below)
+    assert list(found) == ["d3"] and found["d3"]["worst"] == pytest.approx(-0.05)
+    below[5] = np.nan                                    # a NaN sample hides no crossing
+    assert list(crossings(PRP, t, below)) == ["d3"]
+    assert crossings(PRP, t, np.where(np.isnan(below), np.nan, inside)) == {}
+
+
 def test_the_warning_points_at_the_users_line_whichever_way_in():
     """simulate() and a scenario's run() reach the warning through different armlab frames;
     either way it names the caller's file, not a line of armlab's."""

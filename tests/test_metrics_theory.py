@@ -86,6 +86,8 @@ def test_components_measured_together_as_each_alone_and_by_definition():
         assert (overshoot(t, e[:, k]) is None) == (over is None)
         if over is not None:
             assert overshoot(t, e[:, k]) == pytest.approx(over, rel=1e-12, abs=1e-12)
+    with pytest.raises(ValueError, match="one component"):
+        settling_time(t, e)
 
 
 def test_the_seeds_a7_mismatch_settles_at_its_equilibrium():

@@ -112,6 +112,33 @@ def test_a_law_with_the_wrong_number_of_arguments_is_refused():
     assert "takes 2 arguments; a law takes (t, q, qd) or (t, q, qd, z, h_e, params" in one_line(error)
 
 
+def test_a_laws_arguments_are_counted_as_its_signature_says():
+    import functools
+
+    from armlab.control.function import arity
+
+    def law(t, q, qd, extra=None):
+        return q
+
+    @functools.wraps(law)
+    def decorated(*args, **kwargs):                      # inspect reads the wrapped signature
+        return law(*args, **kwargs)
+
+    class Callable:
+        __hash__ = None                                  # not hashable: nothing may need that
+
+        def __call__(self, t, q, qd):
+            return q
+
+        def method(self, t, q, qd):
+            return q
+
+    assert [arity(f) for f in (law, decorated, Callable(), Callable().method)] == [3] * 4
+    law.__defaults__ = (None, None)                     # now (t, q) are all it needs
+    with pytest.raises(ProtocolError, match="takes 2 arguments"):
+        arity(law)
+
+
 def test_a_list_where_a_tuple_is_expected_is_refused():
     with pytest.raises(ProtocolError) as error:
         FunctionController(ROBOT, njit(pid), parameters=[Q_DES, KP, KD, KI], z0=np.zeros(3), logged=SIGNALS)

@@ -267,12 +267,13 @@ def test_unchosen_executor_large_sweeps_on_processes_short_runs_on_one_thread(mo
     assert runner.default_executor(spec) == (1, None)                    # short runs: one thread
     monkeypatch.setattr(runner, "THREAD_JOINT_STEPS", steps)
     assert runner.default_executor(spec) == (2, None)                    # long runs: every core
+    # What sweep() does with it.
+    assert sweep(spec, tmp_path / "long").executor == "2 local threads"
+    monkeypatch.setattr(runner, "THREAD_JOINT_STEPS", steps + 1)
+    assert sweep(spec, tmp_path / "short").executor == "1 local thread"
     monkeypatch.setattr(runner.os, "cpu_count", lambda: 1)
     monkeypatch.setattr(runner, "PROCESS_RUNS", 1)
     assert runner.default_executor(spec) == (1, None)
-    # What sweep() does with it.
-    outcome = sweep(spec, tmp_path / "out")
-    assert outcome.executor == "1 local thread"
 
 
 # ---------------------------------------------------------------------------- the store

@@ -75,16 +75,24 @@ def response(t: np.ndarray, e: np.ndarray, band: float = BAND, fraction: float =
     return Response(final, rms, peak_to_peak, largest, settled, np.where(step, over, np.nan))
 
 
+def _component(e) -> np.ndarray:
+    """``e`` as one component, (R,); several are measured with :func:`response`."""
+    e = np.asarray(e, dtype=float)
+    if e.ndim != 1:
+        raise ValueError(f"expected one component, shape (R,), got {e.shape}: use response() for several")
+    return e
+
+
 def steady_state(t: np.ndarray, e: np.ndarray, fraction: float = WINDOW) -> tuple[float, float, float]:
     """(final value e_∞, RMS oscillation, peak-to-peak) of ``e`` over the last ``fraction``."""
-    r = response(t, e, fraction=fraction)
+    r = response(t, _component(e), fraction=fraction)
     return float(r.final[0]), float(r.rms[0]), float(r.peak_to_peak[0])
 
 
 def settling_time(t: np.ndarray, e: np.ndarray, band: float = BAND, fraction: float = WINDOW) -> float | None:
     """Time [s] after which ``e`` stays within ``band`` × max|e − e_∞| of its final value e_∞;
     ``None`` if the last sample is still outside.  ``t[0]`` for a constant signal."""
-    value = float(response(t, e, band, fraction).settling_time[0])
+    value = float(response(t, _component(e), band, fraction).settling_time[0])
     return None if np.isnan(value) else value
 
 
@@ -92,7 +100,7 @@ def overshoot(t: np.ndarray, e: np.ndarray, fraction: float = WINDOW) -> float |
     """Overshoot [%] of ``e`` past its final value, relative to its initial distance from it;
     ``None`` unless e starts at its largest distance from the final value (a step response:
     a signal that starts at rest, like a velocity error, has no overshoot to speak of)."""
-    value = float(response(t, e, fraction=fraction).overshoot[0])
+    value = float(response(t, _component(e), fraction=fraction).overshoot[0])
     return None if np.isnan(value) else value
 
 

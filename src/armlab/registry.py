@@ -31,6 +31,7 @@ This module imports nothing of armlab, so every module that defines such a class
 
 from __future__ import annotations
 
+import threading
 from dataclasses import dataclass, field, is_dataclass
 
 
@@ -55,8 +56,9 @@ def scenario_type(name: str, *, poses: dict[str, tuple[str, str]] | None = None)
             # The loader reads the dataclass fields: the decorator goes above @dataclass.
             raise TypeError(f"@scenario_type({name!r}): {cls.__qualname__} is not a dataclass "
                             "(put @scenario_type above @dataclass)")
-        _DECLARED[cls] = ScenarioType(name, cls, dict(poses or {}))
-        _BY_BASE.clear()
+        with _LOCK:
+            _DECLARED[cls] = ScenarioType(name, cls, dict(poses or {}))
+            _BY_BASE.clear()
         return cls
 
     return register
@@ -70,6 +72,8 @@ def declared(cls: type) -> ScenarioType | None:
 _BY_BASE: dict[type, dict[str, ScenarioType]] = {}
 """scenario_types() per base class, until the next declaration (a scenario file asks for
 them seven times)."""
+_LOCK = threading.Lock()
+"""Held while a class is declared and while scenario_types() reads the declarations."""
 
 
 def scenario_types(base: type) -> dict[str, ScenarioType]:
@@ -77,7 +81,10 @@ def scenario_types(base: type) -> dict[str, ScenarioType]:
     were declared."""
     found = _BY_BASE.get(base)
     if found is None:
-        found = _BY_BASE[base] = _scenario_types(base)
+        with _LOCK:
+            found = _BY_BASE.get(base)
+            if found is None:
+                found = _BY_BASE[base] = _scenario_types(base)
     return dict(found)
 
 

@@ -281,7 +281,7 @@ def joint_steps(spec: SweepSpec) -> int:
         scenario = scenario_from_table(spec.table(0)[1], spec.scenario_file)
         settings = scenario.simulation
         return scenario.plant.n * round(float(settings["t_final"]) / float(settings["dt"]))
-    except (ArmlabError, ValueError, ArithmeticError, KeyError, TypeError):
+    except (ArmlabError, ValueError, ArithmeticError, LookupError, TypeError):
         return THREAD_JOINT_STEPS
 
 
