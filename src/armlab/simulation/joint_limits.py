@@ -93,7 +93,7 @@ def crossings(plant, t: np.ndarray, q: np.ndarray) -> dict:
     left their limits (times [s], worst = the excursion of largest magnitude)."""
     arrays = plant.arrays
     # Most runs stay inside, which each joint's extremes tell: reduced along a contiguous copy
-    # of the columns, 16 µs for a 10 s log of the PRP at 1 kHz, where numpy's reductions and
+    # of the columns, ~20 µs for a 10 s log of the PRP at 1 kHz, where numpy's reductions and
     # comparisons across the rows of an (R, 3) array take 0.35 ms (8 % of the run).  fmax and
     # fmin pass over NaN samples, which excess() counts as inside.
     columns = np.ascontiguousarray(q.T)

@@ -144,7 +144,6 @@ def _local(spec, store, pending, threads, bar, processes=None) -> dict:
         threads = processes
         pool = ProcessPoolExecutor(max_workers=processes, mp_context=multiprocessing.get_context("spawn"))
     else:
-        threads = threads or os.cpu_count() or 1
         pool = ThreadPoolExecutor(max_workers=threads)
     with pool:
         queue, running = list(reversed(pending)), set()
@@ -341,9 +340,9 @@ def sweep(spec, out, *, threads: int | None = None, processes: int | None = None
             if local_cluster is not None:
                 local_cluster.close()
     else:
-        count = threads or os.cpu_count() or 1
+        threads = threads or os.cpu_count() or 1
         executor = (f"{processes} local processes" if processes
-                    else f"{count} local thread{'s' if count > 1 else ''}")
+                    else f"{threads} local thread{'s' if threads > 1 else ''}")
         if log is not None:
             print(f"{spec.name}: {spec.n_runs} runs in {spec.n_chunks} chunks on {executor}", file=log,
                   flush=True)

@@ -23,8 +23,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from armlab.metrics import WINDOW, response, tail_slice, time_at_limit
-from armlab.viz.layout import FORCE_REFERENCES, pretty
+from armlab.metrics import FORCE_REFERENCES, WINDOW, response, tail_slice, time_at_limit
+from armlab.viz.layout import pretty
 
 
 @dataclass(frozen=True)
