@@ -20,7 +20,10 @@ numba's import alone then takes several times longer; (a) shows both.
   the first A7 result (target ≤ 10 s); a 3-joint and a 7-joint arm with ordinary random
   parameters (:func:`random_arm`), their first ``armlab.simulate`` (targets ≤ 10 s, ≤ 15 s).
   One process each (a second would find its caches filled); a process still running after
-  :data:`TIMEOUT` seconds is stopped and shown as such.
+  :data:`TIMEOUT` seconds is stopped and shown as such.  On a cold machine the first
+  simulation has a second process compile the loop's shared kernels beside it
+  (``armlab.simulation.compile_ahead``): its CPU time is in the process's, hence CPU above
+  wall.
 
 MuJoCo is a benchmark-only dependency (``pip install -e ".[bench]"``, which ``make bench``
 does); without it, its side is skipped with a message.  Before anything is timed, MuJoCo's

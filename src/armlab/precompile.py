@@ -13,6 +13,10 @@ build them side by side and every later simulation loads them:
   plant's kinematics, joint references, and the task-space kernels of the operational-space
   and interaction controllers.
 
+A single simulation on a cold machine uses a smaller split: ``python -m armlab.precompile loop
+<marker>`` compiles the fixed-step loop and its energy check while the simulation compiles its
+robot's and controller's kernels (``armlab.simulation.compile_ahead``).
+
 Each half calls the kernels with arguments of the types the controllers pass them (a robot's
 ``RobotArrays`` and workspaces, C-contiguous float64 arrays, int64 codes), so the compiled
 versions are the ones the laws link.  Results of these calls are discarded.  A kernel missed
@@ -20,6 +24,8 @@ here is not an error: it compiles on first use, as it always would.
 """
 
 from __future__ import annotations
+
+import sys
 
 import numpy as np
 from numba import njit, types
@@ -94,3 +100,20 @@ def _log_task_signals(ws, rows, signals):
     compiles another version of ``log_task_signals`` than the one the laws link."""
     log_task_signals(ws, rows, signals, log_pose_signals(ws, signals))
 
+
+def main(argv: list[str]) -> None:
+    """``python -m armlab.precompile loop <marker>``: the second process of
+    ``armlab.simulation.compile_ahead`` (the loop's shared kernels, then its marker)."""
+    if len(argv) != 2 or argv[0] != "loop":
+        raise SystemExit("usage: python -m armlab.precompile loop <marker>")
+    from armlab.simulation import compile_ahead
+    from armlab.simulation.loop import compile_loop_kernels
+
+    try:
+        compile_loop_kernels()
+    finally:
+        compile_ahead.finish(argv[1])
+
+
+if __name__ == "__main__":
+    main(sys.argv[1:])
