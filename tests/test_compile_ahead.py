@@ -4,17 +4,17 @@ compiling them, gives the same result, and no process starts another when it nee
 
 from __future__ import annotations
 
+import fcntl
 import json
 import os
 import subprocess
 import sys
-import time
 
 import numpy as np
 import pytest
 
 import armlab
-from armlab.simulation import compile_ahead
+from armlab.simulation import compile_ahead, loop
 
 # A short A7-like run: computed torque on the PRP, with a compile-event recorder (compiles
 # only: numba loads from its disk cache without that event).
@@ -66,7 +66,9 @@ def test_cold_machine_loads_the_loop_compiled_by_a_second_process(tmp_path):
     assert {"rnea_packed", "forward_dynamics_packed", "joint_inverse_dynamics_entry"} <= set(run["compiled"])
     assert "rk4_core" not in run["compiled"] and "kinetic_energy_packed" not in run["compiled"]
     marker = tmp_path / "armlab" / "compiled" / os.path.basename(run["marker"])
-    assert marker.exists() and not marker.with_suffix(".lock").exists()
+    assert marker.exists()
+    with open(marker.with_suffix(".lock"), "w") as lock:   # released: the second process ended
+        fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
     # Kernels compiled in another process compute the same numbers, bit for bit.
     assert run["q"] == _same_run_here().tolist()
 
@@ -88,7 +90,7 @@ def fresh(monkeypatch, tmp_path):
     monkeypatch.setenv("ARMLAB_CACHE_DIR", str(tmp_path))
     monkeypatch.delenv("ARMLAB_COMPILE_AHEAD", raising=False)
     monkeypatch.setattr(compile_ahead, "_usable_cpus", lambda: 2)
-    monkeypatch.setattr(compile_ahead, "_loop_in_numba_cache", lambda: False)
+    monkeypatch.setattr(compile_ahead, "in_numba_cache", lambda probe: False)
     spawned = []
     monkeypatch.setattr(compile_ahead.subprocess, "Popen", lambda *a, **k: spawned.append(a) or _Done())
     return spawned
@@ -100,11 +102,10 @@ class _Done:
 
 
 def test_a_second_process_is_spawned_once_per_process_and_holds_the_lock(fresh):
-    assert compile_ahead.start()
+    assert compile_ahead.start(loop.rk4_core)
     program = ["armlab.precompile", "loop", str(compile_ahead.marker_path())]
     assert len(fresh) == 1 and fresh[0][0][-3:] == program
-    assert compile_ahead.marker_path().with_suffix(".lock").exists()
-    assert not compile_ahead.start()                 # once per process
+    assert not compile_ahead.start(loop.rk4_core)                 # once per process
     compile_ahead.wait()
     compile_ahead.wait()                             # nothing left to wait for
     assert len(fresh) == 1
@@ -112,6 +113,7 @@ def test_a_second_process_is_spawned_once_per_process_and_holds_the_lock(fresh):
 
 @pytest.mark.parametrize("why", ["disabled", "one cpu", "marker", "in numba's cache", "locked"])
 def test_no_second_process_when_it_is_not_needed(fresh, monkeypatch, why):
+    holder = None
     if why == "disabled":
         monkeypatch.setenv("ARMLAB_COMPILE_AHEAD", "0")
     elif why == "one cpu":
@@ -120,28 +122,32 @@ def test_no_second_process_when_it_is_not_needed(fresh, monkeypatch, why):
         compile_ahead.marker_path().parent.mkdir(parents=True)
         compile_ahead.marker_path().touch()
     elif why == "in numba's cache":
-        monkeypatch.setattr(compile_ahead, "_loop_in_numba_cache", lambda: True)
+        monkeypatch.setattr(compile_ahead, "in_numba_cache", lambda probe: True)
     else:                                            # another process is compiling them now
         compile_ahead.marker_path().parent.mkdir(parents=True)
-        compile_ahead.marker_path().with_suffix(".lock").touch()
-    assert not compile_ahead.start()
+        holder = open(compile_ahead.marker_path().with_suffix(".lock"), "w")   # noqa: SIM115
+        fcntl.flock(holder, fcntl.LOCK_EX)
+    try:
+        assert not compile_ahead.start(loop.rk4_core)
+    finally:
+        if holder is not None:
+            holder.close()
     assert fresh == []
 
 
-def test_a_lock_left_by_a_dead_process_is_taken_over(fresh):
+def test_a_lock_file_nobody_holds_is_taken(fresh):
+    # Left by a second process that died: its lock died with it, the file stays.
     lock = compile_ahead.marker_path().with_suffix(".lock")
     lock.parent.mkdir(parents=True)
     lock.touch()
-    old = time.time() - compile_ahead.STALE_LOCK - 10
-    os.utime(lock, (old, old))
-    assert compile_ahead.start() and len(fresh) == 1
+    assert compile_ahead.start(loop.rk4_core) and len(fresh) == 1
 
 
 def test_an_unwritable_cache_folder_spawns_nothing(fresh, monkeypatch, tmp_path):
     blocked = tmp_path / "blocked"
     blocked.write_text("a file where the cache folder would be")
     monkeypatch.setenv("ARMLAB_CACHE_DIR", str(blocked))
-    assert not compile_ahead.start()
+    assert not compile_ahead.start(loop.rk4_core)
     assert fresh == []
 
 
@@ -157,3 +163,18 @@ def test_the_second_process_program_refuses_other_arguments():
     done = subprocess.run([sys.executable, "-m", "armlab.precompile", "everything"], capture_output=True,
                           text=True, timeout=120)
     assert done.returncode == 1 and done.stderr.strip() == "usage: python -m armlab.precompile loop <marker>"
+
+
+def test_numba_s_index_is_looked_for_under_its_exact_name(monkeypatch, tmp_path):
+    import numba
+
+    monkeypatch.setattr(numba.config, "CACHE_DIR", str(tmp_path))
+    function = loop.rk4_core.py_func
+    version = f"py{sys.version_info[0]}{sys.version_info[1]}{getattr(sys, 'abiflags', '')}"
+    folder = tmp_path / "simulation_0123abcd"
+    folder.mkdir()
+    stale = folder / f"loop.rk4_core-{function.__code__.co_firstlineno + 7}.{version}.nbi"
+    stale.touch()                                    # the function has moved since: not it
+    assert not compile_ahead.in_numba_cache(loop.rk4_core)
+    (folder / f"loop.rk4_core-{function.__code__.co_firstlineno}.{version}.nbi").touch()
+    assert compile_ahead.in_numba_cache(loop.rk4_core)

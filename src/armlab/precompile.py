@@ -107,9 +107,10 @@ def main(argv: list[str]) -> None:
     if len(argv) != 2 or argv[0] != "loop":
         raise SystemExit("usage: python -m armlab.precompile loop <marker>")
     from armlab.simulation import compile_ahead
-    from armlab.simulation.loop import compile_loop_kernels
 
     try:
+        from armlab.simulation.loop import compile_loop_kernels
+
         compile_loop_kernels()
     finally:
         compile_ahead.finish(argv[1])

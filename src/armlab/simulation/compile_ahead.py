@@ -12,35 +12,37 @@ into numba's disk cache while this one compiles the others, and this one then lo
 :func:`start` spawns that process (``python -m armlab.precompile loop <marker>``), at most
 once per process, and only when
 
-* numba's disk cache holds no index of ``rk4_core`` (beside its source, or under
-  ``NUMBA_CACHE_DIR``: where ``armlab.caches`` looks for armlab's cache files), and no earlier
-  process has tried: a marker file in armlab's cache folder (``compiled/``), named after
-  numba's version, numba's cache folder, the Python version and the stamps of the kernels'
-  sources (numba's own cache is invalidated by those stamps), for a numba cache kept
-  elsewhere;
-* no other process is compiling them now: a lock file beside the marker (one older than
-  :data:`STALE_LOCK` seconds was left by a process that died, and is taken over);
-* this process may use two CPUs or more, and ``ARMLAB_COMPILE_AHEAD`` is not ``0``.
+* numba's disk cache holds no index of ``rk4_core`` (numba's file
+  ``loop.rk4_core-<line>.py<version>.nbi``, beside its source or under ``NUMBA_CACHE_DIR``),
+  and no earlier process has tried: a marker file in armlab's cache folder (``compiled/``),
+  named after numba's version, numba's cache folder, the Python version and the stamps of the
+  kernels' sources (numba invalidates its cache by those stamps).  The marker covers a numba
+  cache kept elsewhere (numba's per-user folder, when the source's folder is read-only);
+* no other process is compiling them now: the second process holds an exclusive ``flock`` on
+  a lock file beside the marker from its start to its end (its exit, or its death, releases
+  it);
+* this process may use two CPUs or more, the platform has ``flock``, and
+  ``ARMLAB_COMPILE_AHEAD`` is not ``0``.
 
 The second process writes the marker when it ends, whether it compiled everything or not
 (what it missed is compiled where it is needed, as before), so a machine tries once.
-:func:`wait` — the loop calls it before it takes the shared kernels — waits for that process
-at most :data:`WAIT` seconds.  Nothing else changes: a kernel missing from the disk cache is
-compiled where it is needed, whoever was meant to compile it.
+:func:`wait` — the loop calls it just before it takes the shared kernels — waits for that
+process at most :data:`WAIT` seconds (every thread that calls it).  Nothing else changes: a
+kernel missing from the disk cache is compiled where it is needed, whoever was meant to
+compile it.  (A run that uses neither kernel — the adaptive integrator, a generated module's
+energy — still waits for them, on a cold machine only.)
 """
 
 from __future__ import annotations
 
+import atexit
 import hashlib
 import os
 import subprocess
 import sys
 import threading
-import time
 from pathlib import Path
 
-# Seconds after which a lock file is taken for the remains of a process that died.
-STALE_LOCK = 300.0
 # Seconds :func:`wait` waits for the second process (it needs ~5 s on an idle 2-core machine).
 WAIT = 120.0
 # The sources of the kernels compiled ahead (numba invalidates their cache when these change).
@@ -73,37 +75,25 @@ def marker_path() -> Path:
     return cache_dir() / "compiled" / f"loop-kernels-{digest}"
 
 
-def _loop_in_numba_cache() -> bool:
-    """Whether numba's disk cache holds an index of ``rk4_core`` (it may be stale: then the
-    kernels compile here, as without this module)."""
+def in_numba_cache(dispatcher) -> bool:
+    """Whether numba's disk cache holds an index of ``dispatcher``'s function as its source
+    reads now (numba's file name carries the function's first line; the index may still be
+    stale, and the kernels then compile where needed, as without this module)."""
     import numba
 
-    pattern = "loop.rk4_core-*.nbi"
+    function = dispatcher.py_func
+    name = (f"{Path(function.__code__.co_filename).stem}.{function.__qualname__}-"
+            f"{function.__code__.co_firstlineno}.py{sys.version_info[0]}{sys.version_info[1]}"
+            f"{getattr(sys, 'abiflags', '')}.nbi")
     if numba.config.CACHE_DIR:
-        return any(Path(numba.config.CACHE_DIR).rglob(pattern))
-    return any((Path(__file__).resolve().parent / "__pycache__").glob(pattern))
+        return any(Path(numba.config.CACHE_DIR).rglob(name))
+    return (Path(function.__code__.co_filename).parent / "__pycache__" / name).exists()
 
 
-def _take_lock(lock: Path) -> bool:
-    """Create ``lock`` (only one process can); take over one left by a dead process."""
-    for _ in range(2):
-        try:
-            os.close(os.open(lock, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o644))
-            return True
-        except FileExistsError:
-            try:
-                if time.time() - lock.stat().st_mtime < STALE_LOCK:
-                    return False
-                lock.unlink()
-            except FileNotFoundError:
-                pass
-        except OSError:                 # a cache folder that cannot be written: no second process
-            return False
-    return False
-
-
-def start() -> bool:
-    """Spawn the second process if the module's conditions hold; whether it was spawned."""
+def start(probe) -> bool:
+    """Spawn the second process if the module's conditions hold (``probe``: the loop's
+    ``rk4_core``, whose cache index says whether the kernels are compiled); whether it was
+    spawned."""
     global _started, _helper
     with _LOCK:
         if _started:
@@ -112,33 +102,45 @@ def start() -> bool:
         if os.environ.get("ARMLAB_COMPILE_AHEAD", "1") == "0" or _usable_cpus() < 2:
             return False
         try:
-            marker = marker_path()
-            if marker.exists() or _loop_in_numba_cache():
-                return False
-            marker.parent.mkdir(parents=True, exist_ok=True)
-        except OSError:
-            return False
-        if not _take_lock(marker.with_suffix(".lock")):
+            import fcntl
+        except ImportError:             # no flock (Windows): no second process
             return False
         try:
-            # The program is armlab.precompile's (``loop``); it finds the modules this process
-            # found.
-            path = os.pathsep.join(entry for entry in sys.path if entry)
-            _helper = subprocess.Popen([sys.executable, "-m", "armlab.precompile", "loop", str(marker)],
-                                       env={**os.environ, "PYTHONPATH": path}, stdin=subprocess.DEVNULL,
-                                       stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-                                       start_new_session=True)
-        except OSError:
-            marker.with_suffix(".lock").unlink(missing_ok=True)
+            marker = marker_path()
+            if marker.exists() or in_numba_cache(probe):
+                return False
+            marker.parent.mkdir(parents=True, exist_ok=True)
+            lock = os.open(marker.with_suffix(".lock"), os.O_CREAT | os.O_WRONLY, 0o644)
+        except OSError:                 # a cache folder that cannot be written
             return False
-        return True
+        try:
+            fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            if marker.exists():         # written by a second process that has just ended
+                return False
+            _helper = _spawn(marker, lock)
+            return True
+        except OSError:                 # locked: another process is compiling them now
+            return False
+        finally:
+            os.close(lock)              # the second process keeps its copy, and the lock
+
+
+def _spawn(marker: Path, lock: int) -> subprocess.Popen:
+    import numba
+
+    # The child sees the modules and the numba cache this process sees; ``-P``: not the
+    # current folder before them.
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(entry for entry in sys.path if entry)}
+    if numba.config.CACHE_DIR:
+        env["NUMBA_CACHE_DIR"] = str(numba.config.CACHE_DIR)
+    return subprocess.Popen([sys.executable, "-P", "-m", "armlab.precompile", "loop", str(marker)],
+                            env=env, pass_fds=(lock,), stdin=subprocess.DEVNULL,
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
 
 
 def wait() -> None:
     """Wait for the second process this process spawned, if any (at most :data:`WAIT` s)."""
-    global _helper
-    with _LOCK:
-        helper, _helper = _helper, None
+    helper = _helper
     if helper is not None:
         try:
             helper.wait(WAIT)
@@ -146,9 +148,15 @@ def wait() -> None:
             pass                        # it goes on; what it has not written is compiled here
 
 
+@atexit.register
+def _reap() -> None:
+    """Collect the second process's exit status if it has ended (a run that failed before
+    :func:`wait` never waited for it)."""
+    if _helper is not None:
+        _helper.poll()
+
+
 def finish(marker: str) -> None:
-    """The second process's last act, whatever happened before: write the marker and release
-    the lock."""
-    marker_file = Path(marker)
-    marker_file.touch()
-    marker_file.with_suffix(".lock").unlink(missing_ok=True)
+    """The second process's last act, whatever happened before: write the marker (the lock
+    is released when the process ends)."""
+    Path(marker).touch()

@@ -236,7 +236,6 @@ def compile_shared() -> None:
     kinematics (``measure_packed``), the disturbances and the general plant kernels (a process
     that starts many simulations can build these while another builds the dynamics,
     ``armlab.precompile``)."""
-    compile_loop_kernels()
     for name in _CORES:
         core_address(name)
     kernel_address(measure_packed, (_VEC, _VEC, _VEC, _VEC, _MAT, _VEC, _VEC), types.none)
@@ -264,8 +263,6 @@ def _addresses(law, env_law, cparams, eparams, forward_dynamics, kinetic_energy,
                         kernel_address(law_trampoline, law_entry_types(cplain), none))
     fn[FN_LAW] = 0 if own else kernel_address(law, (f64, vec, vec, vec, vec, ctype, vec, vec, vec), none)
     fn[FN_FORWARD_DYNAMICS] = kernel_address(fd, (vec,) * 6, _I64)
-    compile_ahead.wait()
-    fn[FN_KINETIC_ENERGY] = kernel_address(ke, (vec,) * 3, f64)
     if has_env:
         fn[FN_ENV_TRAMPOLINE] = kernel_address(env_trampoline, (types.CPointer(eplain), _I64, f64, mat, vec,
                                                                 vec, vec), none)
@@ -273,6 +270,8 @@ def _addresses(law, env_law, cparams, eparams, forward_dynamics, kinetic_energy,
         fn[FN_MEASURE] = kernel_address(measure_packed, (vec, vec, vec, vec, mat, vec, vec), none)
     if has_dist:
         fn[FN_DISTURBANCE] = kernel_address(disturbance_into, (vec, f64, vec, vec, vec), none)
+    compile_ahead.wait()
+    fn[FN_KINETIC_ENERGY] = kernel_address(ke, (vec,) * 3, f64)
     return fn
 
 

@@ -197,7 +197,7 @@ class _Setup:
         if self.python_law is None:
             # With empty caches, a second process compiles the loop's shared kernels while
             # this one compiles the robot's and the controller's (a no-op once compiled).
-            compile_ahead.start()
+            compile_ahead.start(loop.rk4_core)
         entry = _own_entry(type(controller)) if self.python_law is None else None
         self.entry = None if entry is None else _compiled(entry, f"{type(controller).__name__}.entry")
         self.env_law = _compiled(self.env_law, f"{type(environment).__name__}.law")
