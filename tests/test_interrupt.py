@@ -29,6 +29,17 @@ PRP = armlab.load_robot("prp")
 SRC = Path(__file__).resolve().parents[1] / "src"
 
 
+@pytest.fixture(autouse=True)
+def ctrl_c_raises():
+    """Ctrl-C raises KeyboardInterrupt during each test, as in a terminal, also when the suite
+    was started with SIGINT ignored (a background job of a non-interactive shell: Python then
+    leaves it ignored, and ``_thread.interrupt_main`` does nothing); the commands these tests
+    start then get the default too (exec resets a handled signal)."""
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    yield
+    signal.signal(signal.SIGINT, previous)
+
+
 def controller(kp=(25.0, 0.5, 10.0)):
     reference = Sinusoid(center=[0.1, 0.5, 0.05], amplitude=[0.05, 0.3, 0.02], omega=[1.0, 2.0, 3.0])
     return JointPDGravity(PRP, reference, list(kp), [10.0, 0.08, 3.0], "online")
