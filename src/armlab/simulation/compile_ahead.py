@@ -6,8 +6,8 @@ computed torque): the plant's RNEA 2.9 s and forward dynamics 2.3 s, the control
 2.0 s, the fixed-step loop ``rk4_core`` 2.3 s and the kinetic energy of its divergence check
 1.3 s.  The last two are the same for every robot and every controller
 (:func:`armlab.simulation.loop.compile_loop_kernels`): a second Python process compiles them
-into numba's disk cache while this one compiles the others, and this one then loads them
-(``benchmarks/bench_startup.py``, case (c)).
+into numba's disk cache while this one compiles the others, and this one then loads them:
+the first A7 result with empty caches 11.9 → 7.9 s (``benchmarks/bench_startup.py``, case (c)).
 
 :func:`start` spawns that process (``python -m armlab.precompile loop <marker>``), at most
 once per process, and only when
