@@ -37,6 +37,7 @@ $(BENCH_STAMP): $(TEST_STAMP)
 	touch $(BENCH_STAMP)
 
 demo: $(RUN_STAMP)
+	$(BIN)/armlab warmup
 	$(BIN)/armlab demo
 	$(BIN)/armlab report
 

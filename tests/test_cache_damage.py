@@ -5,7 +5,6 @@ identical results."""
 from __future__ import annotations
 
 import os
-import pickle
 import subprocess
 import sys
 import warnings
@@ -15,28 +14,12 @@ import numpy as np
 import pytest
 
 import armlab
-from armlab.caches import is_damaged
 from armlab.errors import CacheWarning
 from armlab.scenarios import scenario_path
 from armlab.simulation.results import SimulationResult
 from armlab.specialise import closed_form
 
 SRC = Path(__file__).resolve().parents[1] / "src"
-
-
-def test_cache_files_are_judged_by_their_pickle_structure_without_running_them(tmp_path):
-    # Built by hand as numba writes them: .nbc one pickle, .nbi two (version, then the index).
-    data = pickle.dumps((b"object code" * 100, {"a": 1}), protocol=-1)
-    index = pickle.dumps("0.68.1", protocol=-1) + pickle.dumps((123, {"sig": "f.1.nbc"}), protocol=-1)
-    for name, content in (("f.1.nbc", data), ("f.nbi", index)):
-        path = tmp_path / name
-        path.write_bytes(content)
-        assert not is_damaged(path)
-        for cut in (0, 1, len(content) // 2, len(content) - 1):
-            path.write_bytes(content[:cut])
-            assert is_damaged(path), (name, cut)
-    (tmp_path / "f.nbi").write_bytes(pickle.dumps("0.68.1", protocol=-1))   # the index lost
-    assert is_damaged(tmp_path / "f.nbi")
 
 
 PROBE = '''
@@ -81,7 +64,8 @@ def test_a_truncated_numba_cache_file_is_discarded_and_rebuilt_with_one_warning(
         path.write_bytes(path.read_bytes()[:200])
     value, seen = call()
     assert value == "42.0" and seen.startswith("CacheWarning: damaged compile cache (") and " | " not in seen
-    assert not any(is_damaged(p) for p in (tmp_path / "numba").rglob("*.nb[ic]"))
+    rebuilt = sorted((tmp_path / "numba").rglob("*.nbc"))
+    assert rebuilt and all(p.stat().st_size > 200 for p in rebuilt)   # written anew, whole
     assert call() == ["42.0", ""]                          # the rebuilt cache loads silently
 
 

@@ -1,4 +1,4 @@
-"""Damaged compile caches are found, discarded and rebuilt, never trusted.
+"""Damaged compile caches are discarded and rebuilt, never trusted.
 
 numba keeps each compiled kernel of armlab (``cache=True``) in a pair of files: an index
 ``<module>.<function>-<line>.py<ver>.nbi`` and data ``….<k>.nbc``, in the ``__pycache__``
@@ -10,12 +10,9 @@ bad sector) makes every later load of that kernel fail deep inside numba (an
 
 :func:`repaired` runs a piece of work and, if it fails inside numba's cache loader
 (recognised by the traceback passing through ``numba/core/caching.py``, no private names),
-checks every cache file of armlab, deletes the damaged ones with one :class:`CacheWarning`
-naming them, and runs the work once more: numba then compiles those kernels again and writes
-fresh files.  A file is damaged when it is not what numba writes: an ``.nbc`` is one pickle,
-an ``.nbi`` two (numba's version, then the index), read here with ``pickletools.genops``,
-which parses the opcodes without building or running anything.  If the loader failed and no
-file looks damaged, every armlab cache file is discarded (they are rebuilt the same way).
+deletes every cache file of armlab once, with one :class:`CacheWarning`, and runs the work
+once more: numba then compiles those kernels again and writes fresh files.  Which file was
+damaged does not matter: all of them are rebuilt the same way.
 A failure to *write* the cache (a full disk, a read-only or missing folder) is not a damaged
 file: the kernel has been compiled and registered in memory before numba tries to save it, so
 :func:`repaired` warns once (:class:`CacheWarning`) and runs the work again, as often as there
@@ -25,9 +22,7 @@ works without a disk cache, and compiles again next time.
 
 from __future__ import annotations
 
-import io
 import os
-import pickletools
 import warnings
 from pathlib import Path
 
@@ -84,40 +79,15 @@ def cache_files() -> list[Path]:
     return files
 
 
-def _pickles(data: bytes) -> int:
-    """How many complete pickles ``data`` holds end to end; ValueError if it ends inside one."""
-    stream, count = io.BytesIO(data), 0
-    while stream.tell() < len(data):
-        for _ in pickletools.genops(stream):
-            pass
-        count += 1
-    return count
-
-
-def is_damaged(path: Path) -> bool:
-    """Whether the cache file ``path`` is not what numba writes (see the module)."""
-    try:
-        data = path.read_bytes()
-        return _pickles(data) != (2 if path.suffix == ".nbi" else 1)
-    except FileNotFoundError:
-        return False
-    except (OSError, ValueError, EOFError, IndexError, UnicodeDecodeError):
-        return True
-
-
-def discard_damaged(everything: bool = False) -> list[Path]:
-    """Delete the damaged cache files of armlab (all of them with ``everything``); returns
-    those deleted."""
+def discard_all() -> list[Path]:
+    """Delete every numba cache file of armlab; returns those deleted."""
     removed = []
     for path in cache_files():
-        if everything or is_damaged(path):
-            try:
-                path.unlink()
-            except FileNotFoundError:
-                continue
-            except OSError:
-                continue          # cannot delete: numba will fail on it again and say so
-            removed.append(path)
+        try:
+            path.unlink()
+        except OSError:
+            continue          # gone already, or cannot delete: numba will say so again
+        removed.append(path)
     return removed
 
 
@@ -127,8 +97,8 @@ compiled in memory; a whole report compiles a few hundred)."""
 
 
 def repaired(work, *args, **kwargs):
-    """``work(*args, **kwargs)``; if it fails on a damaged numba cache entry, the damaged
-    entries are discarded (one :class:`CacheWarning`) and ``work`` runs once more; if it fails
+    """``work(*args, **kwargs)``; if it fails on a damaged numba cache entry, armlab's cache
+    files are discarded (one :class:`CacheWarning`) and ``work`` runs once more; if it fails
     because numba cannot write its cache, it runs again until every kernel it needs is
     compiled in memory (one :class:`CacheWarning`)."""
     repaired_once, warned = False, False
@@ -146,7 +116,7 @@ def repaired(work, *args, **kwargs):
                 continue
             if repaired_once or not is_cache_fault(error):
                 raise
-            removed = discard_damaged() or discard_damaged(everything=True)
+            removed = discard_all()
             if not removed:
                 raise
             repaired_once = True

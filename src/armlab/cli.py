@@ -28,6 +28,7 @@ COMMANDS = (
     "run",
     "report",
     "sweep",
+    "warmup",
 )
 """Modules of ``armlab.commands``, in the order ``armlab --help`` lists them."""
 

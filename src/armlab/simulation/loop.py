@@ -94,7 +94,6 @@ from armlab.kernels.indirect import (
 )
 from armlab.kernels.packed import borrowed, buffer_view
 from armlab.kernels.plant import forward_dynamics_packed, kinetic_energy_packed, measure_packed
-from armlab.simulation import compile_ahead
 from armlab.simulation.disturbances import disturbance_into
 
 (FN_LAW_ENTRY, FN_LAW, FN_ENV_TRAMPOLINE, FN_ENV, FN_FORWARD_DYNAMICS, FN_KINETIC_ENERGY,
@@ -223,19 +222,11 @@ def law_entry_types(cparams_type) -> tuple:
     return (types.CPointer(cparams_type), _I64, _F64, _VEC, _I64, _I64, _I64)
 
 
-def compile_loop_kernels() -> None:
-    """Compile what every fixed-step run shares whatever its robot and controller: the loop
-    ``rk4_core`` and the general kinetic energy of its divergence check (what
-    ``armlab.simulation.compile_ahead`` compiles in a second process)."""
-    core_address("rk4")
-    kernel_address(kinetic_energy_packed, (_VEC,) * 3, _F64)
-
-
 def compile_shared() -> None:
     """Compile what every loop shares, whatever the controller: the three loops, the plant's
     kinematics (``measure_packed``), the disturbances and the general plant kernels (a process
     that starts many simulations can build these while another builds the dynamics,
-    ``armlab.precompile``)."""
+    ``armlab.warmup``)."""
     for name in _CORES:
         core_address(name)
     kernel_address(measure_packed, (_VEC, _VEC, _VEC, _VEC, _MAT, _VEC, _VEC), types.none)
@@ -257,8 +248,6 @@ def _addresses(law, env_law, cparams, eparams, forward_dynamics, kinetic_energy,
     # An own entry has the law inlined: the law itself is then never called by address.
     own = entry is not None
     fn = np.zeros(8, dtype=np.int64)
-    # The run's own kernels first; the shared ones after, once a second process that
-    # compiles them (armlab.simulation.compile_ahead) is done: then they load from its cache.
     fn[FN_LAW_ENTRY] = (kernel_address(entry, law_entry_types(ctype), none) if own else
                         kernel_address(law_trampoline, law_entry_types(cplain), none))
     fn[FN_LAW] = 0 if own else kernel_address(law, (f64, vec, vec, vec, vec, ctype, vec, vec, vec), none)
@@ -270,7 +259,6 @@ def _addresses(law, env_law, cparams, eparams, forward_dynamics, kinetic_energy,
         fn[FN_MEASURE] = kernel_address(measure_packed, (vec, vec, vec, vec, mat, vec, vec), none)
     if has_dist:
         fn[FN_DISTURBANCE] = kernel_address(disturbance_into, (vec, f64, vec, vec, vec), none)
-    compile_ahead.wait()
     fn[FN_KINETIC_ENERGY] = kernel_address(ke, (vec,) * 3, f64)
     return fn
 

@@ -59,7 +59,7 @@ from armlab.control.function import arity, check_params, compile_problem, is_com
 from armlab.dynamics import packed_copy
 from armlab.errors import SimulationDiverged, SimulationError, SimulationInterrupted
 from armlab.kernels.environment import FreeSpaceParams, free_space_law
-from armlab.simulation import compile_ahead, loop, python_loop
+from armlab.simulation import loop, python_loop
 from armlab.simulation.disturbances import encode_disturbances
 from armlab.simulation.joint_limits import annotate, check_mode, joint_stop
 from armlab.simulation.results import SimulationResult
@@ -194,10 +194,6 @@ class _Setup:
         # A law in plain Python runs in armlab.simulation.python_loop (same step, slower).
         self.python_law = None if is_compiled(law) else law
         self.law = None if self.python_law is not None else _compiled(law, f"{type(controller).__name__}.law")
-        if self.python_law is None:
-            # With empty caches, a second process compiles the loop's shared kernels while
-            # this one compiles the robot's and the controller's (a no-op once compiled).
-            compile_ahead.start(loop.rk4_core)
         entry = _own_entry(type(controller)) if self.python_law is None else None
         self.entry = None if entry is None else _compiled(entry, f"{type(controller).__name__}.entry")
         self.env_law = _compiled(self.env_law, f"{type(environment).__name__}.law")

@@ -1,6 +1,6 @@
 """Running the report's experiments: each one measured (result, metrics, scope figures), the
 registry's in a pool of worker processes that first compile the shared kernels in two halves
-(``armlab.precompile``), the rest here while the derivations are made.
+(``armlab.warmup``), the rest here while the derivations are made.
 
 A worker is a spawned interpreter: it draws into files only (matplotlib's file backend), and
 it leaves by itself when the report that started it is killed outright.
@@ -108,15 +108,15 @@ def _leave_when_orphaned(parent: int, period: float = 1.0) -> None:
 
 def _prepare(half: str, robots: list[Robot], index: int) -> None:
     """Worker-process job: compile one half of the kernels all scenarios share
-    (``armlab.precompile``), then say so (also after a failure, which is printed: the
+    (``armlab.warmup``), then say so (also after a failure, which is printed: the
     scenarios then compile what they miss themselves)."""
-    from armlab import precompile
+    from armlab import warmup
 
     try:
         if half == "dynamics":
-            precompile.dynamics_kernels(robots)
+            warmup.dynamics_kernels(robots)
         else:
-            precompile.loop_and_task_kernels(robots[0])
+            warmup.loop_and_task_kernels(robots[0])
     except Exception:  # the scenarios compile what is missing; say what went wrong
         traceback.print_exc()
     finally:

@@ -1,21 +1,20 @@
-"""Compile ahead the kernels every simulation shares, in two halves for two processes.
+"""Compile ahead the kernels every simulation shares: ``armlab warmup``, and the report's two halves.
 
-A cold machine compiles each kernel once and numba keeps it in its disk cache; a process that
-needs a kernel another process has already written loads it in milliseconds.  Two processes
-that start simulations at the same time, however, both compile the kernels they share (the
-RNEA alone takes ~14 s): half the first minute of a report on two cores went into compiling
-the same code twice.  The two halves below are disjoint and of similar size, so two processes
-build them side by side and every later simulation loads them:
+numba compiles each kernel once per machine and keeps it in its disk cache; a process that
+needs a kernel another process has already written loads it in milliseconds.  A cold machine
+therefore pays the compile once, on its first simulation.  ``armlab warmup`` (:func:`warmup`)
+pays it ahead, explicitly, so that the first result a user asks for comes from the cache.
+
+Two processes that start simulations at the same time, however, both compile the kernels they
+share (the RNEA alone takes seconds): half the first minute of a report on two cores went into
+compiling the same code twice.  The two halves below are disjoint and of similar size, so the
+report's two workers build them side by side and every later simulation loads them:
 
 * :func:`dynamics_kernels` — the numeric dynamics (RNEA, CRBA, g, bias, the packed plant and
   the public functions) and the closed forms of the given robots (derived, compiled, checked);
 * :func:`loop_and_task_kernels` — the simulation loop (``armlab.simulation.loop``), the
   plant's kinematics, joint references, and the task-space kernels of the operational-space
   and interaction controllers.
-
-A single simulation on a cold machine uses a smaller split: ``python -m armlab.precompile loop
-<marker>`` compiles the fixed-step loop and its energy check while the simulation compiles its
-robot's and controller's kernels (``armlab.simulation.compile_ahead``).
 
 Each half calls the kernels with arguments of the types the controllers pass them (a robot's
 ``RobotArrays`` and workspaces, C-contiguous float64 arrays, int64 codes), so the compiled
@@ -24,8 +23,6 @@ here is not an error: it compiles on first use, as it always would.
 """
 
 from __future__ import annotations
-
-import sys
 
 import numpy as np
 from numba import njit, types
@@ -37,15 +34,16 @@ from armlab.model.robot import Robot
 _VEC = types.float64[::1]
 
 
-def dynamics_kernels(robots: list[Robot]) -> None:
-    """Compile the dynamics kernels and the closed forms of ``robots`` (see the module)."""
+def dynamics_kernels(robots: list[Robot], closed_forms: bool = True) -> None:
+    """Compile the dynamics kernels and (with ``closed_forms``) the closed forms of ``robots``
+    (see the module)."""
     from armlab import dynamics
     from armlab.kernels import dynamics as kernels
     from armlab.kernels.indirect import kernel_address
     from armlab.kernels.plant import forward_dynamics_packed, inverse_dynamics_packed, kinetic_energy_packed
     from armlab.specialise import ClosedFormUnavailable, closed_form_module
 
-    for robot in robots:
+    for robot in robots if closed_forms else ():
         try:
             closed_form_module(robot)  # derivation, compile and check against the RNEA
         except ClosedFormUnavailable:
@@ -101,20 +99,9 @@ def _log_task_signals(ws, rows, signals):
     log_task_signals(ws, rows, signals, log_pose_signals(ws, signals))
 
 
-def main(argv: list[str]) -> None:
-    """``python -m armlab.precompile loop <marker>``: the second process of
-    ``armlab.simulation.compile_ahead`` (the loop's shared kernels, then its marker)."""
-    if len(argv) != 2 or argv[0] != "loop":
-        raise SystemExit("usage: python -m armlab.precompile loop <marker>")
-    from armlab.simulation import compile_ahead
-
-    try:
-        from armlab.simulation.loop import compile_loop_kernels
-
-        compile_loop_kernels()
-    finally:
-        compile_ahead.finish(argv[1])
-
-
-if __name__ == "__main__":
-    main(sys.argv[1:])
+def warmup(robot: Robot) -> None:
+    """Compile (or load from numba's cache) both halves for ``robot``, one after the other:
+    what ``armlab warmup`` does.  Closed forms are left out: they are opt-in
+    (``dynamics="closed_form"``), and a symbolic derivation is not bounded for every arm."""
+    dynamics_kernels([robot], closed_forms=False)
+    loop_and_task_kernels(robot)
