@@ -271,3 +271,18 @@ def test_no_writes_into_an_objects_dict():
     wrong = [f"{path.relative_to(SRC)}:{line}"
              for path in MODULES.values() for line in dict_writes(parse(path))]
     assert not wrong, "writes into __dict__:\n" + "\n".join(wrong)
+
+
+BOUNDARY = PACKAGE / "kernels" / "boundary.py"
+NUMBA_INSIDES = re.compile(r"numba\.core|numba\.np\.|call_conv|fndesc|overloads\[|get_pointer_to_function"
+                           r"|inttoptr|ptrtoint")
+
+
+def test_numbas_insides_are_named_in_the_boundary_file_alone():
+    # Addresses, calling conventions and numba's internal modules: one file knows them.
+    offenders = sorted(f"{path.relative_to(SRC)}:{number}"
+                       for path in PACKAGE.rglob("*.py") if path != BOUNDARY
+                       for number, line in enumerate(path.read_text(encoding="utf-8").splitlines(), 1)
+                       if NUMBA_INSIDES.search(line))
+    assert not offenders, offenders
+    assert NUMBA_INSIDES.search(BOUNDARY.read_text(encoding="utf-8"))   # the check sees them there

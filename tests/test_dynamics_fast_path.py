@@ -21,6 +21,7 @@ from armlab.dynamics import (
     inertia_matrix,
     inverse_dynamics,
 )
+from armlab.kernels.boundary import buffer_view
 from armlab.kernels.dynamics import (
     coriolis_matrix_into,
     forward_dynamics_into,
@@ -29,7 +30,6 @@ from armlab.kernels.dynamics import (
     mass_matrix_into,
     rnea_into,
 )
-from armlab.kernels.packed import buffer_view
 
 
 @pytest.fixture(scope="module")

@@ -39,7 +39,7 @@ def dynamics_kernels(robots: list[Robot], closed_forms: bool = True) -> None:
     (see the module)."""
     from armlab import dynamics
     from armlab.kernels import dynamics as kernels
-    from armlab.kernels.indirect import kernel_address
+    from armlab.kernels.boundary import kernel_address
     from armlab.kernels.plant import forward_dynamics_packed, inverse_dynamics_packed, kinetic_energy_packed
     from armlab.specialise import ClosedFormUnavailable, closed_form_module
 

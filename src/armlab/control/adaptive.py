@@ -48,8 +48,8 @@ from armlab.control.entry import law_entry, law_views
 from armlab.control.gains import gain_matrix
 from armlab.control.joint_space import _check_reference
 from armlab.errors import ControllerSpecError
+from armlab.kernels.boundary import borrowed
 from armlab.kernels.dynamics import DynamicsWorkspace, make_workspace, rnea_into
-from armlab.kernels.packed import borrowed
 from armlab.model.robot import Robot, RobotArrays
 from armlab.references.joint import JointReference, reference_into
 from armlab.registry import scenario_type

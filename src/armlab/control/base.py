@@ -80,7 +80,7 @@ It is written once next to the law, always the same three lines::
         pd_law(t, q, qd, z, h_e, borrowed(cp[0]), tau_out, zdot_out, signals_out)
 
 so that the law is compiled inlined into the loop's call (~10% of a small robot's run).
-``borrowed`` (``armlab.kernels.packed``) tells numba that the arrays it hands over need no
+``borrowed`` (``armlab.kernels.boundary``) tells numba that the arrays it hands over need no
 reference counting (the simulation keeps them alive): without it, the refcount code around
 every array the law takes out of ``params`` costs more than a small robot's law itself.
 Without it (``entry = None``), or when the class's ``law`` is not the law the entry was made

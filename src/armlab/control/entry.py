@@ -17,7 +17,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from armlab.kernels.packed import buffer_view
+from armlab.kernels.boundary import buffer_view
 
 
 @njit(cache=True, inline="always")

@@ -18,9 +18,8 @@ from armlab.control.entry import law_entry, law_views
 from armlab.control.gains import gain_matrix
 from armlab.dynamics import packed_copy
 from armlab.errors import ControllerSpecError
+from armlab.kernels.boundary import borrowed, call_none, kernel_address
 from armlab.kernels.dynamics import DynamicsWorkspace, gravity_into, make_workspace
-from armlab.kernels.indirect import call_none, kernel_address
-from armlab.kernels.packed import borrowed
 from armlab.kernels.plant import inverse_dynamics_packed, rnea_packed, zero_wrench
 from armlab.model.robot import Robot, RobotArrays
 from armlab.references.joint import JointReference, reference_into

@@ -27,6 +27,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from armlab.kernels.boundary import borrowed, buffer_view
 from armlab.kernels.dynamics import (
     crba_body,
     kernel,
@@ -37,7 +38,7 @@ from armlab.kernels.dynamics import (
 from armlab.kernels.energy import kinetic_energy_kernel
 from armlab.kernels.kinematics import end_effector_into, geometric_jacobian_into, joint_frames_into
 from armlab.kernels.linalg import cholesky_solve_inplace
-from armlab.kernels.packed import borrowed, buffer_view, pack_robot, unpack_robot
+from armlab.kernels.packed import pack_robot, unpack_robot
 from armlab.model.robot import RobotArrays
 
 HEAD = 7

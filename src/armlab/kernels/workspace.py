@@ -13,7 +13,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from armlab.kernels.packed import buffer_view
+from armlab.kernels.boundary import buffer_view
 
 
 class DynamicsWorkspace(NamedTuple):

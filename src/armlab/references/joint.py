@@ -38,7 +38,7 @@ PIECEWISE_ORDER = 6  # coefficients per piece and joint: degree ≤ 5
 
 
 # Inlined into the law that evaluates the reference (four times a step): there the reference
-# data is borrowed (armlab.kernels.packed), and the reference-counting code folds away, which
+# data is borrowed (armlab.kernels.boundary), and the reference-counting code folds away, which
 # it cannot in a separately compiled function (~1 ms of a 10 s PRP run at 1 kHz).
 kernel = njit(cache=True, inline="always")
 

@@ -1,5 +1,5 @@
 """Compiled closed-loop integrators: one cached loop that calls the law, the environment and the
-plant through machine addresses (``armlab.kernels.indirect``).
+plant through machine addresses (``armlab.kernels.boundary``).
 
 The whole closed loop — plant forward dynamics, environment, control law (with its reference),
 saturation, disturbance and the RK4 update — runs without returning to the interpreter.  The
@@ -83,8 +83,9 @@ import numpy as np
 from numba import njit, typeof, types
 
 from armlab.control.entry import law_views
-from armlab.kernels.environment import FreeSpaceParams, free_space_law
-from armlab.kernels.indirect import (
+from armlab.kernels.boundary import (
+    borrowed,
+    buffer_view,
     call_float,
     call_int,
     call_none,
@@ -92,7 +93,7 @@ from armlab.kernels.indirect import (
     kernel_address,
     stack_address,
 )
-from armlab.kernels.packed import borrowed, buffer_view
+from armlab.kernels.environment import FreeSpaceParams, free_space_law
 from armlab.kernels.plant import forward_dynamics_packed, kinetic_energy_packed, measure_packed
 from armlab.simulation.disturbances import disturbance_into
 

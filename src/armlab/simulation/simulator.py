@@ -51,7 +51,7 @@ import os
 import time
 
 import numpy as np
-from numba.core.errors import TypingError
+from numba import TypingError
 
 from armlab.caches import repaired
 from armlab.control.base import Controller, Environment, ProtocolError, Signal

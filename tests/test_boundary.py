@@ -1,18 +1,18 @@
-"""Indirect calls of compiled kernels (armlab.kernels.indirect) and the loop's scratch layout."""
+"""Indirect calls of compiled kernels (armlab.kernels.boundary) and the loop's scratch layout."""
 
 import numpy as np
 import pytest
 from numba import njit, typeof, types
 
 import armlab
-from armlab.kernels.indirect import (
+from armlab.kernels.boundary import (
+    borrowed,
     call_float,
     call_int,
     call_none,
     kernel_address,
     stack_address,
 )
-from armlab.kernels.packed import borrowed
 from armlab.kernels.plant import forward_dynamics_packed, kinetic_energy_packed, pack_plant
 from armlab.simulation import loop
 
@@ -148,7 +148,7 @@ def _returns_something(a):
 
 
 def test_a_callee_returning_the_wrong_type_is_refused_before_any_call():
-    from armlab.kernels.indirect import IndirectCallError
+    from armlab.kernels.boundary import IndirectCallError
 
     with pytest.raises(IndirectCallError, match="returns array.*expects none"):
         kernel_address(_returns_something, (VEC,), types.none)
