@@ -77,7 +77,8 @@ def test_a_truncated_generated_module_is_generated_again_with_identical_results(
     first = armlab.inverse_dynamics(link1, q, qd, qdd, dynamics="closed_form")
     (module,) = (tmp_path / "cache" / "closed_form").glob("*.py")
     text = module.read_text()
-    for damaged in (text[: len(text) // 2], text.replace("0.981", "0.982", 1), text + "x = 1\n"):
+    for damaged in (text[: len(text) // 2], text.replace("tau_out[0] = ", "tau_out[0] = 1.0 + ", 1),
+                    text + "x = 1\n"):
         module.write_text(damaged)
         monkeypatch.setattr(closed_form, "_OUTCOMES", {})
         fresh = armlab.load_robot("link1")                  # its own per-robot entries

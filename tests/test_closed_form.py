@@ -84,9 +84,9 @@ def test_auto_uses_the_generated_dynamics_for_small_and_large_robots():
                      dt=1e-3)
     large = simulate(puma, pd(puma, reference(np.zeros(6)), 10.0, 2.0), q0=np.zeros(6), t_final=0.01,
                      dt=1e-3)
-    # Lagrange's closed form for the PRP, the traced kernels (armlab.specialise.traced) for the Puma.
+    # One generator for both sizes: the traced kernels (armlab.specialise.traced).
     assert small.meta["dynamics"] == "closed_form" and large.meta["dynamics"] == "closed_form"
-    assert "armlab.symbolic" in closed_form_module(prp).__doc__
+    assert "armlab.specialise.traced" in closed_form_module(prp).__doc__
     assert "armlab.specialise.traced" in closed_form_module(puma).__doc__
 
 
@@ -260,7 +260,7 @@ def test_auto_without_a_module_on_disk_calls_the_kernels(monkeypatch, tmp_path):
 
 
 # What "auto" does for an arm nobody asked a closed form for: a 3-joint arm with ordinary
-# (random, non-round) numbers, whose Lagrange derivation can take many minutes.
+# (random, non-round) numbers, whose symbolic derivation can take many minutes.
 AUTO_PROGRAM = """
 import json, pickle, sys
 import numpy as np
@@ -302,7 +302,6 @@ def test_auto_never_starts_a_derivation_and_a_module_appears_only_on_request(mon
     from armlab.specialise import closed_form
 
     robot = ordinary_arm()
-    assert robot.n <= closed_form.LAGRANGE_MAX_JOINTS        # the Lagrange generator's size
     pickled = tmp_path / "robot.pickle"
     pickled.write_bytes(pickle.dumps(robot))
     cache = tmp_path / "cache"
@@ -313,10 +312,9 @@ def test_auto_never_starts_a_derivation_and_a_module_appears_only_on_request(mon
     report = json.loads(done.stdout.strip().splitlines()[-1])
     assert report == {"plant": "numeric", "controller_numeric": True, "sympy": []}
     assert not list(cache.glob("**/*.py"))                   # nothing generated
-    # Asked for by name, a module is made (by the traced generator here: its cost is bounded,
-    # the derivation's is not), and from then on "auto" takes it.
+    # Asked for by name, a module is made (by the traced generator: its cost is bounded), and
+    # from then on "auto" takes it.
     monkeypatch.setenv("ARMLAB_CACHE_DIR", str(cache))
-    monkeypatch.setattr(closed_form, "LAGRANGE_MAX_JOINTS", 0)
     run = {}
     for dynamics in ("closed_form", "auto"):
         monkeypatch.setattr(closed_form, "_OUTCOMES", {})     # each as a fresh process would

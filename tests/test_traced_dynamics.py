@@ -15,7 +15,7 @@ from armlab.kernels import dynamics as kernels
 from armlab.kernels.plant import pack_plant
 from armlab.references.joint import ViaPoints
 from armlab.simulation import simulate
-from armlab.specialise import LAGRANGE_MAX_JOINTS, closed_form, closed_form_module
+from armlab.specialise import closed_form_module
 from armlab.specialise.traced import TracedBranch, _objects, _Tape, _Tracer, traced_source
 from pinocchio_model import armlab_v, pinocchio_model, pinocchio_q, pinocchio_v
 from strategies import robots, without_actuators
@@ -32,11 +32,7 @@ def assert_close(actual, expected, what):
 
 
 def traced_module(robot, monkeypatch=None):
-    """The robot's traced module from armlab.specialise; a robot small enough for the Lagrange
-    closed form is sent to the traced generator by lowering LAGRANGE_MAX_JOINTS (``monkeypatch``)."""
-    if robot.n <= LAGRANGE_MAX_JOINTS:
-        monkeypatch.setattr(closed_form, "LAGRANGE_MAX_JOINTS", 0)
-        robot = robot.replace(links=robot.links)    # a new object: it remembers no closed form
+    """The robot's traced module from armlab.specialise (the one generator, for every size)."""
     module = closed_form_module(robot)
     assert "armlab.specialise.traced" in module.__doc__
     return module
@@ -97,13 +93,13 @@ def test_puma560_equals_pinocchio():
 
 
 @FEW
-@given(robot=robots(min_joints=LAGRANGE_MAX_JOINTS + 1, max_joints=6, motors=True, friction=True))
+@given(robot=robots(min_joints=4, max_joints=6, motors=True, friction=True))
 def test_random_robots_equal_the_numeric_kernels(robot):
     compare_with_numeric(robot, traced_module(robot))
 
 
 @FEW
-@given(robot=robots(min_joints=LAGRANGE_MAX_JOINTS + 1, max_joints=6))
+@given(robot=robots(min_joints=4, max_joints=6))
 def test_random_robots_equal_pinocchio(robot):
     compare_with_pinocchio(robot, traced_module(robot))
 

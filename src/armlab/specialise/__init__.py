@@ -1,7 +1,7 @@
 """Robot specialisation: dynamics generated for one robot's numbers, below the public API.
 
-A robot's generated module (the Lagrange closed form of ``armlab.symbolic`` for small arms,
-the numeric kernels partially evaluated by :mod:`armlab.specialise.traced` for larger ones) is
+A robot's generated module (the numeric kernels partially evaluated for its numbers by
+:mod:`armlab.specialise.traced`) is
 made on request, cached on disk, and checked against the compiled kernels of
 ``armlab.kernels`` before use (:mod:`armlab.specialise.closed_form`).  The simulator and the
 controllers ask :func:`plant_kernels` and :func:`inverse_dynamics_kernel` for the kernels a
@@ -11,7 +11,6 @@ controllers ask :func:`plant_kernels` and :func:`inverse_dynamics_kernel` for th
 
 from armlab.specialise.closed_form import (
     DYNAMICS_CHOICES,
-    LAGRANGE_MAX_JOINTS,
     ClosedFormUnavailable,
     cache_dir,
     cached_module,
@@ -24,6 +23,6 @@ from armlab.specialise.closed_form import (
     robot_key,
 )
 
-__all__ = ["DYNAMICS_CHOICES", "LAGRANGE_MAX_JOINTS", "ClosedFormUnavailable", "cache_dir", "cached_module",
+__all__ = ["DYNAMICS_CHOICES", "ClosedFormUnavailable", "cache_dir", "cached_module",
            "choice_problem", "chosen_module", "closed_form_module", "closed_form_status",
            "inverse_dynamics_kernel", "plant_kernels", "robot_key"]

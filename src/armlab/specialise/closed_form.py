@@ -15,15 +15,13 @@ kernels of ``armlab.kernels.plant``:
 and to Python: ``armlab.inverse_dynamics``, ``inertia_matrix`` and ``forward_dynamics`` take
 the same ``dynamics=`` choice (their default is the numeric kernels).
 
-Two generators write such a module:
-
-* robots of up to ``LAGRANGE_MAX_JOINTS`` joints: the Lagrange closed form — B(q), C(q, q̇) q̇ + g(q)
-  and J(q) as ``armlab.symbolic`` derives them (A2–A3), printed by
-  ``armlab.symbolic.module_source`` (the symbolic derivation grows quickly with n, and with
-  parameters that are not round numbers: minutes for some 3-joint arms);
-* larger robots: ``armlab.specialise.traced``, the numeric RNEA/CRBA kernels partially
-  evaluated for the robot's numbers (straight-line code, the geometry's zeros and ones folded
-  away).
+One generator writes such a module, for every size: ``armlab.specialise.traced``, the
+numeric RNEA/CRBA kernels partially evaluated for the robot's numbers (straight-line code, the
+geometry's zeros and ones folded away).  Its cost is bounded (a fraction of a second of tracing,
+then numba's compile).  A second generator, the Lagrange closed form printed from
+``armlab.symbolic``, was removed: on the PRP's whole A7 run it was no faster than the traced
+module (7.7 against 5.0 ms a 10 s run, measured side by side), and its symbolic derivation is
+not bounded (minutes for some 3-joint arms with non-round parameters).
 
 The module is written to the cache directory (folder ``closed_form`` of :func:`cache_dir`:
 ``ARMLAB_CACHE_DIR``, else the user's cache folder, ``~/.cache/armlab`` on Linux) under a key
@@ -73,8 +71,6 @@ from armlab.kernels.plant import (
 )
 from armlab.model.robot import Robot
 
-# Up to this many joints the Lagrange closed form (armlab.symbolic), beyond it the traced one.
-LAGRANGE_MAX_JOINTS = 3
 # Beyond this many joints no module is generated: generating and compiling the traced code
 # grows as n³ (about 2 min and 0.5 GB at 30 joints, 15 min and 2 GB at 60), while the numeric
 # kernels serve any size at once.
@@ -111,23 +107,12 @@ def cache_dir() -> Path:
     return user_cache_path("armlab", appauthor=False)
 
 
-def _generator(robot: Robot) -> str:
-    """Which generator writes the robot's module: "lagrange" (armlab.symbolic) or "traced"."""
-    return "lagrange" if robot.n <= LAGRANGE_MAX_JOINTS else "traced"
-
-
 @functools.cache
-def _sources_digest(generator: str) -> bytes:
-    """Hash of the sources the generated code depends on: the symbolic model, or the traced
-    generator and the kernels it evaluates (read, not imported: armlab.symbolic imports SymPy)."""
-    digest = hashlib.sha256()
-    if generator == "lagrange":
-        sources = sorted((_PACKAGE / "symbolic").glob("*.py"))
-    else:
-        digest.update(b"traced")
-        sources = [_PACKAGE / "specialise" / "traced.py", _PACKAGE / "kernels" / "dynamics.py",
-                   _PACKAGE / "symbolic" / "module_source.py"]           # its LDLᵀ lines
-    for path in sources:
+def _sources_digest() -> bytes:
+    """Hash of the sources the generated code depends on: the traced generator and the kernels
+    it evaluates (read, not imported)."""
+    digest = hashlib.sha256(b"traced")
+    for path in (_PACKAGE / "specialise" / "traced.py", _PACKAGE / "kernels" / "dynamics.py"):
         digest.update(path.read_bytes())
     return digest.digest()
 
@@ -138,13 +123,13 @@ def robot_key(robot: Robot) -> str:
     each to compute): the last robots' keys are kept here, with the robots (so that their
     identities stay theirs)."""
     known = _KEYS.get(id(robot))
-    if known is not None and known[0] is robot and known[1] == _generator(robot):
-        return known[2]
+    if known is not None and known[0] is robot:
+        return known[1]
     key = _robot_key(robot)
     with _KEYS_LOCK:
         while len(_KEYS) >= 64:
             del _KEYS[next(iter(_KEYS))]
-        _KEYS[id(robot)] = (robot, _generator(robot), key)
+        _KEYS[id(robot)] = (robot, key)
     return key
 
 
@@ -154,7 +139,7 @@ def _robot_key(robot: Robot) -> str:
         digest.update(name.encode())
         digest.update(np.ascontiguousarray(value).tobytes())
     digest.update(repr(robot.spec).encode() if getattr(robot, "spec", None) is not None else b"")
-    digest.update(_sources_digest(_generator(robot)))
+    digest.update(_sources_digest())
     return digest.hexdigest()[:20]
 
 
@@ -204,15 +189,9 @@ def _writable_folder() -> Path:
 
 
 def _generate(robot: Robot, key: str, path: Path) -> None:
-    if _generator(robot) == "lagrange":
-        from armlab.symbolic.model import symbolic_robot
-        from armlab.symbolic.module_source import closed_form_source
+    from armlab.specialise.traced import traced_source
 
-        source = closed_form_source(symbolic_robot(robot, numeric=True), key=key)
-    else:
-        from armlab.specialise.traced import traced_source
-
-        source = traced_source(robot, key=key)
+    source = traced_source(robot, key=key)
     # Written atomically: parallel processes may generate the same module.  The last line holds
     # the digest of the rest, checked before every import (_intact).
     body = source if source.endswith("\n") else source + "\n"
@@ -317,7 +296,7 @@ def _load(robot: Robot, key: str, path: Path):
     try:
         module = _import(path, _module_name(key))
         reason = _verify(robot, module)
-    except Exception as error:  # the symbolic model may not cover a robot: say so, fall back
+    except Exception as error:  # a module that cannot be imported or checked: say so, fall back
         first_line = (str(error).strip().splitlines() or [""])[0]
         reason = f"no closed form for robot {robot.name!r}: {type(error).__name__}: {first_line}"
     if reason:

@@ -22,7 +22,7 @@ Coulomb friction is written out per joint (the kernels trace a frictionless copy
 robot), and the wrench term is traced on its own (its run-time test, ``_has_wrench``, is taken
 as true while tracing).
 
-The module has the interface of the Lagrange closed forms (``armlab.symbolic.module_source``):
+The module has the interface of the packed-robot kernels (``armlab.kernels.plant``):
 
     inverse_dynamics(packed, q, qd, qdd, tau_out)
         τ = RNEA(q, q̇, q̈) + F_v q̇ + F_s sgn q̇                                  (D1, h_e = 0)
@@ -330,7 +330,7 @@ class _Tracer:
 
 def _friction(arrays: RobotArrays) -> tuple[list[str], list[str]]:
     """(lines f{i} = F_v q̇_i + F_s sgn q̇_i, the term ' + f{i}' or '' per joint), as
-    ``module_source._friction_lines`` writes them (sgn(0) = 0)."""
+    the numeric kernels compute them (sgn(0) = 0)."""
     lines, terms = [], []
     for i, (viscous, coulomb) in enumerate(zip(arrays.viscous, arrays.coulomb, strict=True)):
         viscous, coulomb = float(viscous), float(coulomb)
@@ -343,11 +343,56 @@ def _friction(arrays: RobotArrays) -> tuple[list[str], list[str]]:
     return lines, terms
 
 
+def _ldl_solve(n: int, zero, rhs: list[str]) -> list[str]:
+    """Lines solving B x = rhs by B = L D Lᵀ (L unit lower), B's entries in ``b{i}_{j}``;
+    ``zero(i, j)`` says B_ij ≡ 0.  Writes x{i}; returns 2 if a pivot D_j ≤ 0."""
+    lines = []
+    nonzero_L = {}
+    for j in range(n):
+        terms = [f"L{j}_{k}*L{j}_{k}*D{k}" for k in range(j) if nonzero_L.get((j, k))]
+        lines.append(f"    D{j} = b{j}_{j}" + "".join(f" - {t}" for t in terms))
+        lines.append(f"    if not D{j} > 0.0:\n        return 2")
+        for i in range(j + 1, n):
+            products = [f"L{i}_{k}*L{j}_{k}*D{k}" for k in range(j)
+                        if nonzero_L.get((i, k)) and nonzero_L.get((j, k))]
+            if zero(i, j) and not products:
+                continue
+            nonzero_L[(i, j)] = True
+            head = "0.0" if zero(i, j) else f"b{i}_{j}"
+            lines.append(f"    L{i}_{j} = ({head}" + "".join(f" - {t}" for t in products) + f") / D{j}")
+    for i in range(n):
+        terms = [f"z{k}*L{i}_{k}" for k in range(i) if nonzero_L.get((i, k))]
+        lines.append(f"    z{i} = {rhs[i]}" + "".join(f" - {t}" for t in terms))
+    for i in range(n - 1, -1, -1):
+        terms = [f"x{k}*L{k}_{i}" for k in range(i + 1, n) if nonzero_L.get((k, i))]
+        lines.append(f"    x{i} = z{i} / D{i}" + "".join(f" - {t}" for t in terms))
+    return lines
+
+
+def mass_matrix_lines(n: int, body: list[str], entries: list[str]) -> list[str]:
+    """``mass_matrix(packed, q, B_out)``: ``body`` computes the n² row-major ``entries``."""
+    return ["@njit(cache=True)", "def mass_matrix(packed, q, B_out):",
+            '    """B(q) (D2); 1 for a wrong length."""',
+            f"    if q.shape[0] != {n} or B_out.shape[0] != {n} or B_out.shape[1] != {n}:",
+            "        return 1", *body,
+            *[f"    B_out[{i}, {j}] = {entries[n * i + j]}" for i in range(n) for j in range(n)],
+            "    return 0"]
+
+
+def checked_inverse_lines(n: int) -> list[str]:
+    """``checked_inverse_dynamics``: the module's ``inverse_dynamics`` after a length check."""
+    return ["@njit(cache=True)",
+            "def checked_inverse_dynamics(packed, q, qd, qdd, tau_out):",
+            '    """inverse_dynamics for calls from Python; 1 for a wrong length."""',
+            f"    if (q.shape[0] != {n} or qd.shape[0] != {n} or qdd.shape[0] != {n}"
+            f" or tau_out.shape[0] != {n}):",
+            "        return 1",
+            "    inverse_dynamics(packed, q, qd, qdd, tau_out)",
+            "    return 0"]
+
+
 def traced_source(robot: Robot, *, key: str) -> str:
     """Source of the module (interface in the module docstring) for ``robot``."""
-    # These import SymPy: at generation only.
-    from armlab.symbolic.module_source import _ldl_solve, checked_inverse_lines, mass_matrix_lines
-
     n = robot.n
     tracer = _Tracer(robot)
     friction, plus_f = _friction(robot.arrays)
