@@ -129,6 +129,7 @@ def test_report_is_self_contained_and_complete(report):
         number = assignment_number(name)
         assert f"A{number}" in page.sections if number else "other" in page.sections
         assert any(f.startswith(f"fig-{name}-") for f in page.figures), name
+        assert f"fig-{name}-loop" in page.figures, name  # its block diagram
     from PIL import Image
 
     for src in page.images:

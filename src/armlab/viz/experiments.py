@@ -80,6 +80,7 @@ class Experiment:
     # scenarios it discovers, and the theory of the others would cost it SciPy's solvers.
     predictor: object = None
     quick: bool = False  # draw the main scopes alone (armlab.viz.layout.main_scopes)
+    diagram: bytes = b""  # PNG of its closed loop's block diagram (armlab.viz.loop_diagram)
 
     def run(self):
         """Run the scenario: ``runner()`` returns its SimulationResult."""

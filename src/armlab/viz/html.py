@@ -36,6 +36,8 @@ figure { margin: 0; padding: 6px; background: #fff; border: 1px solid var(--rule
 figure img { display: block; max-width: 100%; height: auto; }
 figure.scope img { width: 570px; }
 figure.drawing img { width: 400px; }
+figure.diagram img { width: auto; max-width: 100%; }
+figure.diagram figcaption { max-width: 900px; }
 figure.drawing figcaption { max-width: 400px; }
 figure.view3d iframe { display: block; width: 760px; max-width: 100%; height: 610px; border: 0; }
 figure.view3d figcaption { max-width: 760px; }

@@ -218,6 +218,13 @@ def _experiment_html(exp: Experiment) -> str:
         # A declared joint limit left (or a stop met) is part of what the run shows.
         line = describe_crossing(exp.robot, name, crossing, limits.get("mode", "warn"))
         parts.append(f'<p class="diverged">{html.escape(line)}</p>')
+    if exp.diagram:
+        caption = (f"{exp.name}: the closed loop as simulated, drawn from the scenario's objects "
+                   "(controller, gains, saturation, disturbance, environment, sensors); under the row, "
+                   "the measured signals fed back.")
+        parts.append('<div class="figures">' + html.figure(html.png_data_uri(exp.diagram), caption,
+                                                            kind="diagram", ident=f"fig-{exp.name}-loop")
+                     + "</div>")
     if exp.figures:
         items = [html.figure(html.png_data_uri(data), caption, kind="scope", ident=f"fig-{exp.name}-{scope}")
                  for scope, caption, data in exp.figures]

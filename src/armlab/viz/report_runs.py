@@ -40,6 +40,18 @@ def scope_figures(exp: Experiment) -> list[tuple[str, str, bytes]]:
     return figures
 
 
+def loop_figure(scenario: str) -> bytes:
+    """The PNG of the block diagram of the scenario named (or filed) ``scenario``; empty
+    bytes when the scenario no longer loads (its run's error says why)."""
+    from armlab.scenarios import load_scenario
+    from armlab.viz.diagram_drawing import diagram_png
+
+    try:
+        return diagram_png(load_scenario(scenario))
+    except ArmlabError:
+        return b""
+
+
 def _theory_scopes(exp: Experiment) -> list:
     """The linear system an impedance run is designed to follow, over the run (A12); the
     controller's M_d and Σ_d are read from its scenario, which the result does not log."""
@@ -79,6 +91,8 @@ def evaluate(exp: Experiment) -> Experiment:
             exp.predicted = exp.predictor()
         exp.metrics = measure(exp.result, exp.predicted)
         exp.figures = scope_figures(exp)
+    if exp.scenario is not None and not exp.diagram:
+        exp.diagram = loop_figure(exp.scenario)
     exp.runner = exp.predictor = None  # closures do not cross process boundaries
     return exp
 
@@ -187,7 +201,7 @@ def run_all(planned: list[Experiment], progress: tqdm, workers: int, main_job, o
         for future in as_completed(futures):
             done = future.result()
             target = by_name[futures[future]]
-            for key in ("result", "error", "seconds", "metrics", "figures", "robot", "plane"):
+            for key in ("result", "error", "seconds", "metrics", "figures", "robot", "plane", "diagram"):
                 setattr(target, key, getattr(done, key))
             progress.set_postfix_str(f"ran {done.name} ({done.seconds:.1f} s)")
             progress.update()
