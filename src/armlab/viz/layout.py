@@ -34,7 +34,7 @@ axis; every y label carries its unit.  :mod:`armlab.viz.scopes` draws them.
 from __future__ import annotations
 
 import re
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -175,12 +175,48 @@ def _run_of(result) -> _Run:
                 controller if isinstance(controller, dict) else {})
 
 
+DIVERGENCE_RANGE = 3.0  # a diverged run is drawn until its state leaves this many times its early range
+
+
+def before_divergence(result) -> tuple[object, str]:
+    """``result`` cut where a diverged run leaves its range, and a sentence saying so ('' for a
+    run that did not diverge): the first sample where a joint position or velocity exceeds
+    :data:`DIVERGENCE_RANGE` times its largest magnitude over the run's first half.  Drawn
+    whole, the last samples (10¹⁶ rad) would flatten everything before them to a line."""
+    if result.status != "diverged" or len(result.t) < 4:
+        return result, ""
+    state = np.hstack([result.q, result.qd])
+    finite = np.all(np.isfinite(state), axis=1)
+    last = int(np.argmin(finite)) if not finite.all() else len(finite)   # the first non-finite row
+    early = np.abs(state[: max(last // 2, 1)]).max(axis=0)
+    beyond = np.any(np.abs(state[:last]) > DIVERGENCE_RANGE * early + 1e-9, axis=1)
+    stop = int(np.argmax(beyond)) + 1 if beyond.any() else last
+    stop = max(stop, 2)
+    if stop >= len(result.t):
+        return result, ""
+    cut = slice(0, stop)
+    kept = replace(result, t=result.t[cut], q=result.q[cut], qd=result.qd[cut], qdd=result.qdd[cut],
+                   tau=result.tau[cut], z=result.z[cut],
+                   signals={name: value[cut] for name, value in result.signals.items()})
+    note = (f"Drawn up to t = {kept.t[-1]:.4g} s, where the state leaves {DIVERGENCE_RANGE:g}× its range of "
+            f"the first half; the samples after it, to t = {result.t[-1]:.4g} s, are the blow-up.")
+    return kept, note
+
+
+def _noted(scopes: list[Scope], note: str) -> list[Scope]:
+    for scope in scopes:
+        scope.caption = f"{scope.caption} {note}".strip()
+    return scopes
+
+
 def scope_layout(result) -> list[Scope]:
-    """The figures to draw for ``result``, chosen from its groups (see the module docstring)."""
+    """The figures to draw for ``result``, chosen from its groups (see the module docstring);
+    a diverged run's up to its divergence (:func:`before_divergence`)."""
+    result, note = before_divergence(result)
     run = _run_of(result)
-    return [*_tracking_scopes(run), *_error_scopes(run), _torque_scope(run), *_force_scopes(run),
-            *_estimate_scopes(run), *_lyapunov_scopes(run), *_singular_value_scopes(run),
-            *_signal_scopes(run)]
+    return _noted([*_tracking_scopes(run), *_error_scopes(run), _torque_scope(run), *_force_scopes(run),
+                   *_estimate_scopes(run), *_lyapunov_scopes(run), *_singular_value_scopes(run),
+                   *_signal_scopes(run)], note)
 
 
 def main_scopes(result) -> list[Scope]:
@@ -190,9 +226,10 @@ def main_scopes(result) -> list[Scope]:
     (``forces``, A11–A15) and the parameter estimates (``estimates``, A8).  Built alone, not
     picked from the whole layout: the errors' designed response would import SciPy's signal
     package (over a second)."""
+    result, note = before_divergence(result)
     run = _run_of(result)
     tracking = _tracking_scopes(run)
-    return [*(tracking[1:] or tracking), *_force_scopes(run), *_estimate_scopes(run)]
+    return _noted([*(tracking[1:] or tracking), *_force_scopes(run), *_estimate_scopes(run)], note)
 
 
 # ----------------------------------------------------------------------------- tracking

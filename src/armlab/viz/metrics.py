@@ -12,7 +12,12 @@ report from its docstring.  Rows, per component:
 * final parameter estimates against the true values;
 * the theory's predictions (:func:`armlab.theory.predictions`) beside the measured value.
 
-A diverged run's diagnosis is not a metric: the report prints it next to the table.
+A diverged run has no metrics: its last samples (10¹⁶ rad, 10⁸³ N·m) describe the blow-up,
+not the loop; the report prints its diagnosis instead.  A component that stays at rounding
+level over the run (``armlab.metrics.at_rounding``) reads "zero to rounding", never an
+overshoot or a settling time of its floating-point residue.  A run driven by a periodic
+reference or disturbance has no steady state: its errors get their RMS and peak over the
+second half only.
 
 Each metric is a :class:`Metric` row (quantity, component, value, unit) for the report's tables.
 """
@@ -23,7 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from armlab.metrics import FORCE_REFERENCES, WINDOW, response, tail_slice, time_at_limit
+from armlab.metrics import FORCE_REFERENCES, WINDOW, at_rounding, response, tail_slice, time_at_limit
 from armlab.viz.layout import pretty
 
 
@@ -46,37 +51,72 @@ class Metric:
         return f"{self.value:.3g}" if 1e-3 <= magnitude < 1e4 else f"{self.value:.2e}"
 
 
+ZERO_TO_ROUNDING = "zero to rounding"
+PERIODIC_REFERENCES = ("Sinusoid", "SquareWaveAcceleration")
+PERIODIC_DISTURBANCES = ("SinusoidalTorque",)
+
+
+def periodic(result) -> bool:
+    """True for a run driven by a periodic reference (R3, R5) or a sinusoidal disturbance."""
+    controller = result.meta.get("controller")
+    reference = controller.get("reference") if isinstance(controller, dict) else None
+    if isinstance(reference, dict) and reference.get("type") in PERIODIC_REFERENCES:
+        return True
+    terms = result.meta.get("disturbance") or []
+    return any(isinstance(term, dict) and term.get("type") in PERIODIC_DISTURBANCES for term in terms)
+
+
+def _error_rows(t: np.ndarray, name: str, data: np.ndarray, labels, units, cyclic: bool) -> list[Metric]:
+    """The rows of one error signal (see the module docstring)."""
+    rows = []
+    half = slice(t.size // 2, None)
+    r = response(t, data)
+    rounding = at_rounding(data)
+    what = pretty(name)
+    for k, label in enumerate(labels):
+        unit, component = units[k], pretty(label)
+        rms = Metric(f"RMS {what} (2nd half)", component, float(np.sqrt(np.mean(data[half, k] ** 2))), unit)
+        if rounding[k]:
+            first = f"RMS {what} (2nd half)" if cyclic else f"steady-state {what} (mean, last 5 %)"
+            rows.append(Metric(first, component, ZERO_TO_ROUNDING))
+            continue
+        if cyclic:
+            rows += [rms, Metric(f"peak |{what}| (2nd half)", component, float(np.max(np.abs(data[half, k]))),
+                                 unit)]
+            continue
+        rows.append(Metric(f"steady-state {what} (mean, last 5 %)", component, float(r.final[k]), unit))
+        rows.append(Metric(f"oscillation of {what} (RMS, last 5 %)", component, float(r.rms[k]), unit))
+        ts = float(r.settling_time[k])
+        settled = not np.isnan(ts)
+        rows.append(Metric(f"settling time (2 % band about the final value) of {what}",
+                           component, ts if settled else "not settled", "s" if settled else ""))
+        if not np.isnan(r.overshoot[k]):
+            rows.append(Metric(f"overshoot of {what}", component, float(r.overshoot[k]), "%"))
+        rows.append(rms)
+    return rows
+
+
 def measure(result, predicted=()) -> list[Metric]:
     """Every metric of the module docstring that ``result`` has the signals for; ``predicted``
     the :class:`armlab.theory.Prediction` s of its scenario."""
+    if result.status == "diverged":
+        return []
     t = np.asarray(result.t)
     tail = tail_slice(t, WINDOW)
     half = slice(t.size // 2, None)
     rows: list[Metric] = []
+    cyclic = periodic(result)
     for name, data in result.signals.items():
-        if not name.endswith("_err"):
-            continue
-        r = response(t, data)
-        for k, label in enumerate(result.labels[name]):
-            unit = result.units[name][k]
-            component = pretty(label)
-            rows.append(Metric(f"steady-state {pretty(name)} (mean, last 5 %)", component,
-                               float(r.final[k]), unit))
-            rows.append(Metric(f"oscillation of {pretty(name)} (RMS, last 5 %)", component,
-                               float(r.rms[k]), unit))
-            ts = float(r.settling_time[k])
-            settled = not np.isnan(ts)
-            rows.append(Metric(f"settling time (2 % band about the final value) of {pretty(name)}",
-                               component, ts if settled else "not settled", "s" if settled else ""))
-            if not np.isnan(r.overshoot[k]):
-                rows.append(Metric(f"overshoot of {pretty(name)}", component, float(r.overshoot[k]), "%"))
-            rows.append(Metric(f"RMS {pretty(name)} (2nd half)", component,
-                               float(np.sqrt(np.mean(data[half, k] ** 2))), unit))
+        if name.endswith("_err"):
+            rows += _error_rows(t, name, data, result.labels[name], result.units[name], cyclic)
     limit = result.meta.get("torque_limit")
     limits = None if limit is None else np.broadcast_to(np.asarray(limit, dtype=float), (result.n,))
     for k, label in enumerate(result.labels["tau"]):
         unit = result.units["tau"][k]
-        rows.append(Metric("peak |τ|", pretty(label), float(np.max(np.abs(result.tau[:, k]))), unit))
+        if at_rounding(result.tau[:, k])[0]:
+            rows.append(Metric("peak |τ|", pretty(label), ZERO_TO_ROUNDING))
+        else:
+            rows.append(Metric("peak |τ|", pretty(label), float(np.max(np.abs(result.tau[:, k]))), unit))
         if limits is not None and np.isfinite(limits[k]):
             rows.append(Metric("time at the torque limit", pretty(label),
                                time_at_limit(result.tau[:, k], limits[k]), "%"))

@@ -24,6 +24,7 @@ from matplotlib.transforms import blended_transform_factory
 
 from armlab.errors import ScopeError
 from armlab.files import replacing
+from armlab.metrics import ROUNDING
 from armlab.viz.html import figure_png
 from armlab.viz.layout import (  # noqa: F401  (also imported from here by callers)
     ACTUAL,
@@ -41,7 +42,7 @@ from armlab.viz.layout import (  # noqa: F401  (also imported from here by calle
 )
 
 MAX_POINTS = 1000
-ZERO = 1e-10  # SI magnitudes below this are rounding noise (no quantity here is that small)
+ZERO = ROUNDING  # SI magnitudes below this are rounding noise (no quantity here is that small)
 FORMATS = ("png", "svg")
 SCOPE_DPI = 120  # scope PNGs of `armlab run --plot` and the report
 # Figure geometry [in]: the panels' left margin, the column of legends and notes right of them

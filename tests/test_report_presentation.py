@@ -1,0 +1,93 @@
+"""What the report prints and draws of a run: no metrics of a diverged run and its scopes
+drawn up to the divergence, no numbers on rounding residue, no steady state of a periodic run
+(armlab.viz.metrics, armlab.viz.layout).  Expected values are computed here from the data."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from armlab.simulation.results import SimulationResult
+from armlab.viz.layout import before_divergence, scope_layout
+from armlab.viz.metrics import ZERO_TO_ROUNDING, measure
+
+JOINTS = ("d1", "theta2", "d3")
+UNITS = ("m", "rad", "m")
+
+
+def _result(t, q, q_err, *, status="ok", meta=None, tau=None) -> SimulationResult:
+    n = len(t)
+    labels = {name: JOINTS for name in ("q", "qd", "qdd", "tau", "q_err")}
+    labels["z"] = ()
+    units = {name: UNITS for name in ("q", "qd", "qdd", "tau", "q_err")}
+    units["z"] = ()
+    qd = np.gradient(q, t, axis=0)
+    return SimulationResult(t=t, q=q, qd=qd, qdd=np.gradient(qd, t, axis=0),
+                            tau=np.ones((n, 3)) if tau is None else tau, z=np.zeros((n, 0)),
+                            signals={"q_err": q_err}, labels=labels, units=units,
+                            meta={"scenario": "handmade", **(meta or {})}, status=status,
+                            diagnosis="" if status == "ok" else f"simulation {status} at t = {t[-1]:g} s")
+
+
+def _step(t):
+    """A damped step response per joint: e(t) = e^{−t}(cos 3t) (overshoots), and joint 2 at
+    rounding level (1e-17 noise)."""
+    rng = np.random.default_rng(1)
+    e = np.exp(-t)[:, None] * np.cos(3 * t)[:, None] * np.ones((1, 3))
+    e[:, 1] = 1e-17 * rng.normal(size=t.size)
+    return e
+
+
+def test_a_diverged_run_has_no_metrics_and_its_scopes_stop_before_the_blow_up():
+    t = np.linspace(0.0, 2.0, 401)
+    q = np.sin(t)[:, None] * np.ones((1, 3))
+    q[-5:] *= 10.0 ** np.arange(1, 6)[:, None] * 1e3  # the last samples run away to 1e8
+    result = _result(t, q, q.copy(), status="diverged", tau=q.copy())
+    assert measure(result) == []
+    kept, note = before_divergence(result)
+    assert len(kept.t) < len(t) - 4 and "blow-up" in note
+    early = np.abs(q[:200]).max()
+    for scope in scope_layout(result):
+        assert note in scope.caption
+        for panel in scope.panels:
+            for _, times, values, _ in panel.curves:
+                assert times[-1] < t[-5]
+                assert np.nanmax(np.abs(values)) <= 3.0 * early + 1e-9, scope.name
+
+
+def test_a_run_that_did_not_diverge_is_drawn_whole():
+    t = np.linspace(0.0, 2.0, 401)
+    q = np.exp(3 * t)[:, None] * np.ones((1, 3))   # grows, but the run ended as planned
+    result = _result(t, q, q.copy())
+    assert before_divergence(result) == (result, "")
+    assert measure(result)
+
+
+def test_rounding_residue_reads_zero_to_rounding_and_gets_no_response_numbers():
+    t = np.linspace(0.0, 6.0, 1201)
+    e = _step(t)
+    tau = np.ones((t.size, 3))
+    tau[:, 1] = 2e-15 * np.sin(t)
+    metrics = measure(_result(t, e, e, tau=tau))
+    theta = [m for m in metrics if m.component == "θ2"]
+    assert {m.value for m in theta} == {ZERO_TO_ROUNDING}
+    assert {m.quantity for m in theta} == {"steady-state q_err (mean, last 5 %)", "peak |τ|"}
+    # The real components keep their numbers: overshoot by its definition, from the data.
+    overshoot = next(m.value for m in metrics if m.quantity == "overshoot of q_err" and m.component == "d1")
+    final = e[t >= t[-1] - 0.05 * t[-1], 0].mean()
+    expected = 100 * np.max(-(e[:, 0] - final)) / abs(e[0, 0] - final)
+    assert np.isclose(overshoot, expected)
+
+
+def test_a_periodic_run_has_no_steady_state_but_rms_and_peak_over_its_second_half():
+    t = np.linspace(0.0, 10.0, 2001)
+    e = 0.2 * np.sin(2 * t)[:, None] * np.ones((1, 3)) - 0.05
+    meta = {"controller": {"type": "JointPDGravity", "reference": {"type": "Sinusoid"}}}
+    metrics = measure(_result(t, e, e, meta=meta))
+    quantities = {m.quantity for m in metrics}
+    assert not any(q.startswith(("steady-state", "oscillation", "settling", "overshoot")) for q in quantities)
+    half = e[t.size // 2:, 0]
+    rms = next(m.value for m in metrics if m.quantity == "RMS q_err (2nd half)" and m.component == "d1")
+    peak = next(m.value for m in metrics if m.quantity == "peak |q_err| (2nd half)" and m.component == "d1")
+    assert np.isclose(rms, np.sqrt(np.mean(half ** 2))) and np.isclose(peak, np.abs(half).max())
+    disturbed = {"disturbance": [{"type": "SinusoidalTorque", "amplitude": [0, 0.05, 0.5], "omega": 3.0}]}
+    assert not any(m.quantity.startswith("steady-state") for m in measure(_result(t, e, e, meta=disturbed)))
