@@ -486,3 +486,22 @@ def test_a_report_worker_leaves_when_its_parent_is_killed(tmp_path):
         time.sleep(0.1)
     os.kill(worker, signal.SIGKILL)
     raise AssertionError("the worker outlived its killed parent by 10 s")
+
+
+def test_every_equation_tag_an_experiment_names_is_defined_in_it(report):
+    """Each article and seed note carries a legend of the tags (C2, E3, T1 …) its text names."""
+    from armlab.viz.tags import notation_tags, theory_tags
+
+    defined = set(notation_tags()) | set(theory_tags())
+    text = report[0].read_text(encoding="utf-8")
+    blocks = re.findall(r"<article .*?</article>|<aside .*?</aside>", text, flags=re.S)
+    assert blocks
+    checked = 0
+    for block in blocks:
+        legend = re.search(r'<div class="note tags">(.*?)</div>', block, flags=re.S)
+        body = re.sub(r'<div class="note tags">.*?</div>|<[^>]+>|data:[^"]+', " ", block, flags=re.S)
+        named = {tag for tag in re.findall(r"(?<![\w^_])([CKDRSTE]\d{1,2})(?!\w)", body) if tag in defined}
+        given = set(re.findall(r"<li><b>(\w+)</b>", legend.group(1))) if legend else set()
+        assert named <= given, (block[:120], named - given)
+        checked += bool(named)
+    assert checked >= 3

@@ -20,6 +20,7 @@ script; without plotly it has no views and says so in one line.
 from __future__ import annotations
 
 import os
+import re
 import threading
 import time
 from dataclasses import replace
@@ -49,6 +50,7 @@ from armlab.viz.metrics import Metric
 from armlab.viz.notes import markdown_html, metric_definitions, seed_notes, source_name
 from armlab.viz.report_runs import run_all
 from armlab.viz.scopes import SCOPE_DPI, scope_png
+from armlab.viz.tags import legend_html, used_tags
 from armlab.viz.view_pages import plotly_js, view_iframe, write_assets, write_view_page
 
 ASSIGNMENTS = {
@@ -221,7 +223,8 @@ def _experiment_html(exp: Experiment) -> str:
     if exp.diagram:
         caption = (f"{exp.name}: the closed loop as simulated, drawn from the scenario's objects "
                    "(controller, gains, saturation, disturbance, environment, sensors); under the row, "
-                   "the measured signals fed back.")
+                   "the measured signals fed back."
+                   + (f" Its blocks' equations: {', '.join(exp.diagram_tags)}." if exp.diagram_tags else ""))
         parts.append('<div class="figures">' + html.figure(html.png_data_uri(exp.diagram), caption,
                                                             kind="diagram", ident=f"fig-{exp.name}-loop")
                      + "</div>")
@@ -234,8 +237,16 @@ def _experiment_html(exp: Experiment) -> str:
                    f"(the run resampled to at most {VIEW_FRAMES} frames). The page {exp.view} next to "
                    "this file draws it with plotly.js from that folder: no network.")
         parts.append('<div class="figures">' + view_iframe(exp.view, exp.name, caption) + "</div>")
+    parts.append(_tags_html(exp, "".join(parts)))
     parts.append("</article>")
     return "".join(parts)
+
+
+def _tags_html(exp: Experiment, text: str) -> str:
+    """The legend of the equation tags the article's text names (:mod:`armlab.viz.tags`); its
+    theory rows' tags are the theory's."""
+    theory = {tag for p in exp.predicted for tag in used_tags(getattr(p, "quantity", ""))}
+    return legend_html(re.sub(r"<[^>]+>|data:[^\"]+", " ", text), theory)
 
 
 def _comparisons_html(planned: list[Experiment]) -> dict[int, list[str]]:
@@ -429,6 +440,7 @@ def _seed_note_html(number: int) -> str:
     parts = ['<aside class="seed-note"><h3>The seed and armlab</h3>']
     for heading, text in notes:
         parts.append(f"<h4>{html.escape(heading)}</h4>{markdown_html(text)}")
+    parts.append(legend_html(" ".join(text for _, text in notes)))
     parts.append(f'<p class="note">From {html.escape(source_name(number))}.</p></aside>')
     return "".join(parts)
 
