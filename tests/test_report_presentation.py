@@ -113,3 +113,47 @@ def test_the_tag_legend_defines_each_tag_from_its_source():
     assert "B̂(q) K_P q̃ + n̂(q, 0) = g(q)" in rows[1][2] and "B̂(q) K_P q̃" in armlab.theory.__doc__
     # Without a prediction of that tag, T1 is the notation's task-space error.
     assert legend("x̃ (T1)")[0][1:] == ("docs/notation.md", _notation_row("T1").replace("`", ""))
+
+
+def _contact_run(offset: float = 2e-4, force: float = 1.996) -> SimulationResult:
+    """A compliance-like run: p_y settles ``offset`` above a spring's rest plane y_r = −0.2 while
+    x_d asks for −0.1, pressing with ``force``."""
+    t = np.linspace(0.0, 10.0, 2001)
+    q = np.zeros((t.size, 3))
+    rest = np.array([0.0, -0.2, 0.5])
+    p = np.tile(rest, (t.size, 1))
+    p[:, 1] += offset * (1 - np.exp(-3 * t))
+    p[:, 2] = 0.4 + 0.1 * np.exp(-2 * t)
+    h = np.zeros((t.size, 6))
+    h[:, 1] = force * (1 - np.exp(-3 * t))
+    stiffness = np.diag([0.0, 1e4, 0.0, 0.0, 0.0, 0.0])
+    result = _result(t, q, q.copy(), meta={"environment": {"type": "Spring", "stiffness": stiffness.tolist(),
+                                                           "rest_position": rest.tolist(),
+                                                           "rest_rotation": np.eye(3).tolist()}})
+    signals = {**result.signals, "p": p, "p_des": np.tile([0.0, -0.1, 0.4], (t.size, 1)), "h_e": h}
+    labels = {**result.labels, "p": ("x", "y", "z"), "p_des": ("x", "y", "z"),
+              "h_e": ("fx", "fy", "fz", "mux", "muy", "muz")}
+    units = {**result.units, "p": ("m",) * 3, "p_des": ("m",) * 3, "h_e": ("N",) * 3 + ("N·m",) * 3}
+    from dataclasses import replace
+
+    return replace(result, signals=signals, labels=labels, units=units)
+
+
+def test_an_equilibrium_near_the_rest_plane_is_printed_to_its_digits_and_zoomed():
+    result = _contact_run()
+    rows = {m.quantity: m for m in measure(result)}
+    assert rows["final contact wrench h_e"].formatted() == "1.996"
+    distance = next(m for q, m in rows.items() if q.startswith("final p_e − o_r"))
+    tail = result.t >= result.t[-1] - 0.05 * (result.t[-1] - result.t[0])
+    expected = 1e3 * (result.signals["p"][tail, 1].mean() + 0.2)
+    assert distance.unit == "mm" and np.isclose(distance.value, expected) and distance.formatted() == "0.2"
+    (scope,) = [s for s in scope_layout(result) if s.name == "p"]
+    y = scope.panels[1]
+    assert y.zoom is not None and y.zoom.ylim[0] < -0.2 < -0.1998 < y.zoom.ylim[1] < -0.19
+    assert "+0.0002 from Σ_r" in y.note
+    from armlab.viz.scopes import render_scope
+
+    fig = render_scope(scope)
+    (inset,) = fig.axes[1].child_axes
+    levels = [line.get_ydata()[0] for line in inset.lines if len(set(line.get_ydata())) == 1]
+    assert -0.2 in levels  # the rest plane drawn in the inset, beside the trace

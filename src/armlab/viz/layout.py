@@ -59,6 +59,7 @@ OFF_SCALE = 3.0  # a torque limit this many times the largest |τ| is said, not 
 ZOOM_RATIO = 15.0  # a force panel whose range is this many times its tail's gets an inset
 TAIL = 0.25  # the inset shows the last quarter of the run
 INSET_BANDS = {True: (0.40, 0.93), False: (0.07, 0.60)}  # an inset's height in its panel, above / below
+MIDDLE_BAND = (0.2, 0.8)  # between curves at the top and at the bottom (A11: x_d above, x_e at Σ_r)
 NOTE_TAIL = 0.1  # Y(π̂ − π) is summarised by its RMS over the last tenth of the run
 
 
@@ -84,6 +85,7 @@ class Zoom:
     start: float
     ylim: tuple[float, float]
     above: bool = True
+    band: tuple[float, float] | None = None  # its height in the panel, if not INSET_BANDS[above]
 
 
 @dataclass
@@ -286,9 +288,40 @@ def _tracking_scopes(run: _Run) -> list[Scope]:
             rest = dict(color=REST, lw=1.0, ls=(0, (6, 3)), label="Σ_r (spring rest)")
             for panel, value in zip(panels, _rest_position(run), strict=False):
                 panel.hlines.append((value, rest))
+                zoom = _rest_zoom(run.t, panel, value)
+                if zoom is not None:
+                    final = float(np.mean(panel.curves[0][2][_tail(run.t, 0.05)]))
+                    panel.zoom, panel.note_at = zoom, final
+                    panel.note = f"final {final:.5g} {run.units[name][0]}:\n{final - value:+.3g} from Σ_r"
             title += ", spring rest Σ_r"
         scopes.append(Scope(name, title, panels))
     return scopes
+
+
+def _rest_zoom(t: np.ndarray, panel: Panel, rest: float) -> Zoom | None:
+    """An inset of the last :data:`TAIL` of the run around the final value of the panel's
+    first curve (the actual position) and the spring's rest level ``rest`` when the two are
+    :data:`ZOOM_RATIO` times closer than the panel's range (A11: 0.2 mm from the rest plane
+    on a 0.1 m scale), in the half of the panel its curves do not run through; else None."""
+    tail = _tail(t, TAIL)
+    y = panel.curves[0][2]
+    near = np.append(y[tail], rest)
+    every = np.concatenate([curve[2] for curve in panel.curves] + [[rest]])
+    if not (np.all(np.isfinite(near)) and np.any(np.isfinite(every))):
+        return None
+    low, high = float(near.min()), float(near.max())
+    full_low, full_high = float(np.nanmin(every)), float(np.nanmax(every))
+    width = high - low
+    if width < 1e-9 or full_high - full_low < ZOOM_RATIO * width:
+        return None
+    right = t >= t[0] + 0.5 * (t[-1] - t[0])
+    there = (np.concatenate([curve[2][right] for curve in panel.curves]) - full_low) / (full_high - full_low)
+    there = (there + 0.05) / 1.1
+    ylim = (low - 0.5 * width, high + 0.5 * width)
+    for band in (INSET_BANDS[True], INSET_BANDS[False], MIDDLE_BAND):
+        if not np.any((there > band[0] - 0.02) & (there < band[1] + 0.02)):
+            return Zoom(float(t[tail.start]), ylim, above=band != INSET_BANDS[False], band=band)
+    return None
 
 
 def _rest_position(run: _Run) -> np.ndarray | None:

@@ -28,7 +28,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from armlab.metrics import FORCE_REFERENCES, WINDOW, at_rounding, response, tail_slice, time_at_limit
+from armlab.metrics import (
+    FORCE_REFERENCES,
+    ROUNDING,
+    WINDOW,
+    at_rounding,
+    response,
+    tail_slice,
+    time_at_limit,
+)
 from armlab.viz.layout import pretty
 
 
@@ -41,6 +49,7 @@ class Metric:
     component: str
     value: float | str
     unit: str = ""
+    digits: int = 3
 
     def formatted(self) -> str:
         if isinstance(self.value, str):
@@ -48,10 +57,13 @@ class Metric:
         if self.value == 0.0:
             return "0"
         magnitude = abs(self.value)
-        return f"{self.value:.3g}" if 1e-3 <= magnitude < 1e4 else f"{self.value:.2e}"
+        if 1e-3 <= magnitude < 1e4:
+            return f"{self.value:.{self.digits}g}"
+        return f"{self.value:.{self.digits - 1}e}"
 
 
 ZERO_TO_ROUNDING = "zero to rounding"
+EQUILIBRIUM_DIGITS = 4  # significant digits of equilibria and contact forces
 PERIODIC_REFERENCES = ("Sinusoid", "SquareWaveAcceleration")
 PERIODIC_DISTURBANCES = ("SinusoidalTorque",)
 
@@ -130,7 +142,8 @@ def measure(result, predicted=()) -> list[Metric]:
                 desired = float(np.mean(result.signals[ref][tail, k]))
             if abs(final) < 1e-9 and not desired:
                 continue
-            rows.append(Metric("final contact wrench h_e", label, final, result.units["h_e"][k]))
+            rows.append(Metric("final contact wrench h_e", label, final, result.units["h_e"][k],
+                               digits=EQUILIBRIUM_DIGITS))
             if desired is not None:
                 rows.append(Metric(f"final force error {ref} − h_e", label, desired - final,
                                    result.units["h_e"][k]))
@@ -159,15 +172,48 @@ def measure(result, predicted=()) -> list[Metric]:
             mismatch = np.sum(regressor * (result.z - np.asarray(true_values, dtype=float)), axis=1)
             rows.append(Metric("RMS Y(π̂ − π) (2nd half)", "", float(np.sqrt(np.mean(mismatch[half] ** 2))),
                                result.units["tau"][0]))
+    rows += _rest_distance(result, tail)
     for prediction in predicted:
         try:
             run = None if prediction.measured is None else prediction.measured(result)
         except (KeyError, IndexError):   # a run stopped early may lack what is measured
             run = None
         for k, label in enumerate(prediction.labels):
-            rows.append(Metric(f"{prediction.quantity}, theory", pretty(label),
-                               float(prediction.values[k]), prediction.units[k]))
+            unit = prediction.units[k]
+            theory = float(prediction.values[k])
+            rows.append(_equilibrium(f"{prediction.quantity}, theory", pretty(label), theory, unit))
             if run is not None:
-                rows.append(Metric(f"{prediction.quantity}, run", pretty(label), float(run[k]),
-                                   prediction.units[k]))
+                rows.append(_equilibrium(f"{prediction.quantity}, run", pretty(label), float(run[k]), unit))
     return rows
+
+
+def _equilibrium(quantity: str, component: str, value: float, unit: str) -> Metric:
+    """A predicted or measured equilibrium value: to :data:`EQUILIBRIUM_DIGITS` significant
+    digits (−0.1998 m, 1.996 N: where the seed's point is a small offset from a round
+    number), "zero to rounding" for a nonzero residue (an exact 0 stays 0)."""
+    if value != 0.0 and abs(value) < ROUNDING:
+        return Metric(quantity, component, ZERO_TO_ROUNDING)
+    return Metric(quantity, component, value, unit, digits=EQUILIBRIUM_DIGITS)
+
+
+def _rest_distance(result, tail: slice) -> list[Metric]:
+    """The final distance of p_e from a spring's rest plane (through o_r, normal to its
+    stiffest translational direction n, oriented as Σ_r's), in mm: the compliance the seed
+    shows (0.2 mm) is too small for a position in m."""
+    environment = result.meta.get("environment")
+    if not (isinstance(environment, dict) and "p" in result.signals and "rest_position" in environment):
+        return []
+    stiffness = np.asarray(environment.get("stiffness", ()), dtype=float)
+    if stiffness.shape != (6, 6) or not np.any(stiffness[:3, :3]):
+        return []
+    values, vectors = np.linalg.eigh(stiffness[:3, :3])
+    rotation = np.asarray(environment.get("rest_rotation", np.eye(3)), dtype=float)
+    normal = rotation @ vectors[:, int(np.argmax(values))]
+    normal *= np.sign(normal[np.argmax(np.abs(normal))])  # towards +x, +y or +z of Σ_0, the closest
+    final = np.mean(result.signals["p"][tail], axis=0)
+    distance = 1e3 * float(normal @ (final - np.asarray(environment["rest_position"], dtype=float)))
+    axis = "xyz"[int(np.argmax(np.abs(normal)))]
+    aligned = np.isclose(np.abs(normal).max(), 1.0)
+    label = f"n = +{axis}_0" if aligned else f"n = {np.round(normal, 3).tolist()}"
+    return [Metric(f"final p_e − o_r along the spring's stiff direction ({label})", "p_e", distance, "mm",
+                   digits=EQUILIBRIUM_DIGITS)]

@@ -135,12 +135,16 @@ def _draw_zoom(ax, panel: Panel, end: float) -> None:
     """The inset of ``panel.zoom``: the panel's curves from its start to ``end``, in the right
     half of ``ax``, above or below the curves as the layout chose."""
     zoom = panel.zoom
-    low, high = INSET_BANDS[zoom.above]
+    low, high = zoom.band or INSET_BANDS[zoom.above]
     inset = ax.inset_axes([0.5, low, 0.47, high - low])
     for _, t, y, style in panel.curves:
         t, y = np.asarray(t), np.asarray(y)
         inside = t >= zoom.start
         inset.plot(*decimate(t[inside], y[inside]), **style)
+    for value, style in panel.hlines:
+        # A level inside the inset (a spring's rest plane) is what the zoom compares with.
+        if zoom.ylim[0] <= value <= zoom.ylim[1]:
+            inset.axhline(value, **{key: v for key, v in style.items() if key != "label"})
     inset.set_xlim(zoom.start, end)
     inset.set_ylim(*zoom.ylim)
     inset.grid(True, lw=0.4, alpha=0.6)
@@ -173,7 +177,7 @@ def _draw_scope(fig, axes, scope: Scope, title_prefix: str, diagnosis: str) -> N
         if panel.zoom is not None:
             _draw_zoom(ax, panel, end)
             # Beside the inset, away from the final value (which the tail puts in the other half).
-            middle = sum(INSET_BANDS[panel.zoom.above]) / 2
+            middle = sum(panel.zoom.band or INSET_BANDS[panel.zoom.above]) / 2
             ax.text(beside, middle, f"inset: zoom on\nt ≥ {panel.zoom.start:.3g} s",
                     transform=ax.transAxes, ha="left", va="center", fontsize=SMALL, color="0.15")
     axes[0].set_xlim(start, end)  # shared: every panel spans the run
