@@ -157,3 +157,23 @@ def test_an_equilibrium_near_the_rest_plane_is_printed_to_its_digits_and_zoomed(
     (inset,) = fig.axes[1].child_axes
     levels = [line.get_ydata()[0] for line in inset.lines if len(set(line.get_ydata())) == 1]
     assert -0.2 in levels  # the rest plane drawn in the inset, beside the trace
+
+
+def test_a_saturated_torque_panel_shows_the_band_not_the_commanded_peak():
+    from dataclasses import replace
+
+    t = np.linspace(0.0, 3.0, 3001)
+    commanded = np.zeros((t.size, 3))
+    commanded[:, 0] = 540.0 * np.exp(-20 * t) * np.cos(15 * t)  # the A7 ω_n = 60 kind of demand
+    commanded[:, 2] = 30.0 * np.exp(-20 * t)                    # 1.5× its limit: drawn whole
+    applied = np.clip(commanded, -20.0, 20.0)
+    rest = np.zeros((t.size, 3))
+    result = _result(t, rest, rest, tau=applied, meta={"torque_limit": 20.0})
+    result = replace(result, signals={**result.signals, "tau_cmd": commanded},
+                     labels={**result.labels, "tau_cmd": JOINTS}, units={**result.units, "tau_cmd": UNITS})
+    (scope,) = [s for s in scope_layout(result) if s.name == "torques"]
+    first, _, third = scope.panels
+    assert first.ylim is not None and first.ylim[0] == -first.ylim[1]
+    assert 20.0 < first.ylim[1] <= 1.35 * 20.0 + 1e-9
+    assert "540" in first.note and "off-scale" in first.note
+    assert third.ylim is None and {v for v, _ in third.hlines} == {20.0, -20.0}

@@ -56,6 +56,7 @@ FORCE_ONLY_CONTROLLERS = ("ForceControl",)
 # The frame the task error's components are in, by the controller's ``frame`` (A9–A13).
 ERROR_FRAMES = {"base": "Σ_0", "desired": "Σ_d"}
 OFF_SCALE = 3.0  # a torque limit this many times the largest |τ| is said, not drawn
+CLIPPED = 4.0  # a commanded τ this many times its limit is cut from the view (its peak said)
 ZOOM_RATIO = 15.0  # a force panel whose range is this many times its tail's gets an inset
 TAIL = 0.25  # the inset shows the last quarter of the run
 INSET_BANDS = {True: (0.40, 0.93), False: (0.07, 0.60)}  # an inset's height in its panel, above / below
@@ -103,6 +104,7 @@ class Panel:
     note_at: float | None = None
     log: bool = False
     zoom: Zoom | None = None
+    ylim: tuple[float, float] | None = None  # fixed y limits (else autoscaled)
 
 
 @dataclass
@@ -401,9 +403,25 @@ def _torque_scope(run: _Run) -> Scope:
             else:
                 panel.hlines += [(limit[k], dict(color=LIMIT, lw=1.0, ls="-.", label="limit ±τ_max")),
                                  (-limit[k], dict(color=LIMIT, lw=1.0, ls="-."))]
+                _saturation_view(panel, float(limit[k]), unit)
         panels.append(panel)
     run.used.update({"tau", "tau_cmd", "tau_dist"})
     return Scope("torques", "joint torques / forces τ", panels)
+
+
+def _saturation_view(panel: Panel, limit: float, unit: str) -> None:
+    """Where the commanded τ goes :data:`CLIPPED` times past ±τ_max (A7 ω_n = 60: 540 N against
+    20 N), the panel shows the band ±τ_max and the applied τ inside it, not the commanded peak
+    that would flatten both to a line; the note gives the peak."""
+    commanded = [y for label, _, y, _ in panel.curves if label == "commanded"]
+    peak = _peak(commanded)
+    if not commanded or peak <= CLIPPED * limit:
+        return
+    others = _peak(y for label, _, y, _ in panel.curves if label != "commanded")
+    reach = max(1.35 * limit, 1.1 * others)
+    panel.ylim = (-reach, reach)
+    signed = float(commanded[0][np.nanargmax(np.abs(commanded[0]))])
+    panel.note = f"commanded τ peaks at\n{signed:.3g} {unit}: off-scale".replace("  ", " ")
 
 
 # ----------------------------------------------------------------------------- forces

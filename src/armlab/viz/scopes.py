@@ -167,6 +167,8 @@ def _draw_scope(fig, axes, scope: Scope, title_prefix: str, diagnosis: str) -> N
             ax.plot(td, yd, label=label, **style)
         for value, style in panel.hlines:
             ax.axhline(value, **style)
+        if panel.ylim is not None:
+            ax.set_ylim(*panel.ylim)
         note, level = panel.note, panel.note_at
         if _rounding_noise(panel):
             # Values like 1e-16 are rounding noise; autoscaled they would look like a signal.
