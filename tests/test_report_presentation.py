@@ -177,3 +177,22 @@ def test_a_saturated_torque_panel_shows_the_band_not_the_commanded_peak():
     assert 20.0 < first.ylim[1] <= 1.35 * 20.0 + 1e-9
     assert "540" in first.note and "off-scale" in first.note
     assert third.ylim is None and {v for v, _ in third.hlines} == {20.0, -20.0}
+
+
+def test_a_long_scope_title_is_wrapped_inside_the_figure_not_cut():
+    from armlab.viz.layout import Panel, Scope
+    from armlab.viz.scopes import render_scope
+
+    t = np.linspace(0.0, 1.0, 50)
+    panel = Panel("y [m]", curves=[("y", t, t, {})])
+    title = ("p, its reference p_des and the compliant frame p_t, spring rest Σ_r, drawn for a scenario "
+             "whose name is long enough to run past the figure's edge")
+    fig = render_scope(Scope("p", title, [panel]), title_prefix="a13_admittance_regulation_variant")
+    fig.canvas.draw()
+    from matplotlib.text import Text
+
+    (text,) = [a for a in fig.findobj(Text) if a.get_text().startswith("a13_admittance_regulation_variant")]
+    box = text.get_window_extent(fig.canvas.get_renderer())
+    assert fig.bbox.x0 <= box.x0 and box.x1 <= fig.bbox.x1 and box.y1 <= fig.bbox.y1
+    assert text.get_text().replace("\n", " ") == f"a13_admittance_regulation_variant: {title}"
+    assert fig.axes[0].get_window_extent().y1 < box.y0  # the panel starts under the title

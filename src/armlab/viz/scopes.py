@@ -51,6 +51,7 @@ SCOPE_DPI = 120  # scope PNGs of `armlab run --plot` and the report
 WIDTH, LEFT, COLUMN, GAP = 8.0, 0.92, 1.55, 0.1
 ROW, TITLE, AXIS, FOOT_LINE = 1.55, 0.42, 0.45, 0.15
 FOOT_CHARACTERS = 130  # a footnote line at its font size across the figure
+TITLE_CHARACTERS, TITLE_LINE = 88, 0.2  # a title line at its font size across the figure; its height [in]
 FONT, SMALL = 9, 7.5
 
 
@@ -106,8 +107,13 @@ def _footnotes(scope: Scope, diagnosis: str) -> list[tuple[str, str]]:
     return [("\n".join(textwrap.wrap(text, FOOT_CHARACTERS)), colour) for text, colour in notes if text]
 
 
-def _figure_size(rows: int, foot_lines: int = 0) -> tuple[float, float]:
-    return WIDTH, TITLE + AXIS - 0.27 + ROW * rows + FOOT_LINE * foot_lines
+def _figure_size(rows: int, foot_lines: int = 0, title_lines: int = 1) -> tuple[float, float]:
+    return WIDTH, TITLE + TITLE_LINE * (title_lines - 1) + AXIS - 0.27 + ROW * rows + FOOT_LINE * foot_lines
+
+
+def _title_lines(title: str) -> str:
+    """The figure title wrapped to the figure's width (a long one would be cut at its edges)."""
+    return "\n".join(textwrap.wrap(title, TITLE_CHARACTERS)) or title
 
 
 def _span(scope: Scope) -> tuple[float, float]:
@@ -155,7 +161,10 @@ def _draw_zoom(ax, panel: Panel, end: float) -> None:
 def _draw_scope(fig, axes, scope: Scope, title_prefix: str, diagnosis: str) -> None:
     """Draw ``scope`` on ``fig``, whose ``axes`` (one per panel) are styled and empty."""
     footnotes = _footnotes(scope, diagnosis)
-    fig.set_size_inches(_figure_size(len(axes), sum(text.count("\n") + 1 for text, _ in footnotes)))
+    title = _title_lines(f"{title_prefix}: {scope.title}" if title_prefix else scope.title)
+    title_lines = title.count("\n") + 1
+    foot_lines = sum(text.count("\n") + 1 for text, _ in footnotes)
+    fig.set_size_inches(_figure_size(len(axes), foot_lines, title_lines))
     start, end = _span(scope)
     beside = 1.0 + GAP / (WIDTH - LEFT - COLUMN)  # the column right of the panels, in axes widths
     notes = {}
@@ -201,8 +210,7 @@ def _draw_scope(fig, axes, scope: Scope, title_prefix: str, diagnosis: str) -> N
             transform = blended_transform_factory(ax.transAxes, ax.transData) if at_value else ax.transAxes
             ax.text(beside, level if at_value else 0.0, note, transform=transform, ha="left",
                     va="center" if at_value else "bottom", fontsize=SMALL, color="0.15", linespacing=1.25)
-    title = f"{title_prefix}: {scope.title}" if title_prefix else scope.title
-    fig.suptitle(title, fontsize=10.5, y=1.0 - 0.1 / fig.get_figheight(), va="top")
+    fig.suptitle(title, fontsize=10.5, y=1.0 - 0.1 / fig.get_figheight(), va="top", linespacing=1.2)
     height = fig.get_figheight()
     bottom = 0.06
     for text, colour in reversed(footnotes):
@@ -210,7 +218,8 @@ def _draw_scope(fig, axes, scope: Scope, title_prefix: str, diagnosis: str) -> N
                  linespacing=1.2, gid="footnote")
         bottom += FOOT_LINE * (text.count("\n") + 1)
     # Fixed margins in inches (tight_layout would cost as much as drawing the figure).
-    fig.subplots_adjust(left=LEFT / WIDTH, right=1.0 - COLUMN / WIDTH, top=1.0 - TITLE / height,
+    top = TITLE + TITLE_LINE * (title_lines - 1)
+    fig.subplots_adjust(left=LEFT / WIDTH, right=1.0 - COLUMN / WIDTH, top=1.0 - top / height,
                         bottom=(AXIS + bottom - 0.06) / height, hspace=0.13)
 
 
