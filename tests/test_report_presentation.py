@@ -196,3 +196,17 @@ def test_a_long_scope_title_is_wrapped_inside_the_figure_not_cut():
     assert fig.bbox.x0 <= box.x0 and box.x1 <= fig.bbox.x1 and box.y1 <= fig.bbox.y1
     assert text.get_text().replace("\n", " ") == f"a13_admittance_regulation_variant: {title}"
     assert fig.axes[0].get_window_extent().y1 < box.y0  # the panel starts under the title
+
+
+def test_a_note_taken_out_of_its_page_points_at_the_page_for_what_stood_above():
+    from armlab.viz.notes import anchored
+
+    page = "docs/A6-joint-pd.md"
+    text = ("K_P2 = 0.5 does not meet it (see above); the output above gives two branches, "
+            "with x_d above the surface and y_d above its rest plane, 2 mm above 0.1 m.")
+    out = anchored(text, page)
+    assert out.count(f"above in {page}") == 2
+    assert "(see above in docs/A6-joint-pd.md)" in out
+    assert "the output above in docs/A6-joint-pd.md gives" in out
+    assert "x_d above the surface" in out and "above its rest plane" in out and "above 0.1 m" in out
+    assert anchored(out, page) == out  # already anchored: unchanged

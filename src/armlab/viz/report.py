@@ -47,7 +47,7 @@ from armlab.viz.experiments import (  # noqa: F401 — ReportError, assignment_n
     experiment_from_scenario,
 )
 from armlab.viz.metrics import Metric
-from armlab.viz.notes import markdown_html, metric_definitions, seed_notes, source_name
+from armlab.viz.notes import anchored, markdown_html, metric_definitions, seed_notes, source_name
 from armlab.viz.report_runs import run_all
 from armlab.viz.scopes import SCOPE_DPI, scope_png
 from armlab.viz.tags import legend_html, used_tags
@@ -434,7 +434,8 @@ def build_report(robot: str | Robot = "prp", out_dir: str | Path = "report", *, 
 def _seed_note_html(number: int) -> str:
     """Assignment ``number``'s notes on the seed, read from its docs page now (one source for
     the docs and the report); a line saying they are missing when the page is not there."""
-    notes = seed_notes(number)
+    page = source_name(number)
+    notes = [(heading, anchored(text, page)) for heading, text in seed_notes(number)]
     if not notes:
         return ""
     parts = ['<aside class="seed-note"><h3>The seed and armlab</h3>']
