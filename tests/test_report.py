@@ -301,6 +301,12 @@ def test_animation_subject_is_chosen_early_only_when_no_pending_run_can_change_i
     assert animation_subject([diverged, free], "prp", final=False) is None  # not a final choice yet
     assert animation_subject([diverged, free], "prp") is free
     assert animation_subject([], "prp") is None
+    # A run that took a joint past its limits (into its stop) is not animated: the arm would
+    # slide through its end stop instead of showing its course.
+    past = run("past_its_stop", prp, 0.8, wall)
+    past.result.meta = {"joint_limits": {"mode": "warn", "crossed": {"d3": {"t": 0.5}}}}
+    assert animation_subject([small, big, past], "prp") is big
+    assert animation_subject([past], "prp") is past  # the only run there is
 
 
 def _ink_runs(pixels: np.ndarray) -> int:

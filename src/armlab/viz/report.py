@@ -463,8 +463,9 @@ def _motion(exp: Experiment) -> float:
 
 def animation_subject(planned: list[Experiment], robot_name: str, *, final: bool = True):
     """The run the report animates: among the runs of ``robot_name`` (other robots if it has
-    none) that did not diverge (else all) and have an environment plane (else all), the one
-    whose joints travel furthest relative to their ranges; None if there is none.
+    none) that did not diverge and kept their joints within their limits (else all) and have an
+    environment plane (else all), the one whose joints travel furthest relative to their
+    ranges; None if there is none.
 
     With ``final=False`` some runs may still be unfinished: the subject is returned only if
     no unfinished run could change it (it is a finished plane run of the robot that did not
@@ -476,6 +477,7 @@ def animation_subject(planned: list[Experiment], robot_name: str, *, final: bool
             return None
     runs = [e for e in runs if e.robot.name == robot_name] or runs
     runs = [e for e in runs if e.result.status == "ok"] or runs
+    runs = [e for e in runs if not _left_limits(e)] or runs
     if not runs:
         return None
     with_plane = [e for e in runs if e.plane is not None]
@@ -484,6 +486,13 @@ def animation_subject(planned: list[Experiment], robot_name: str, *, final: bool
                           and subject.result.status == "ok"):
         return None
     return subject
+
+
+def _left_limits(exp: Experiment) -> bool:
+    """True when the run took a joint past its declared limits (or into its stop): animated,
+    the arm would slide through its end stop, not show its course."""
+    limits = (getattr(exp.result, "meta", None) or {}).get("joint_limits") or {}
+    return bool(limits.get("crossed"))
 
 
 def _animation(exp: Experiment | None, out_dir: Path) -> str:
