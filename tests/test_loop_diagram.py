@@ -38,9 +38,10 @@ def test_every_scenario_has_its_loop_from_reference_to_sensors(name):
     assert ("saturation" in kinds) == ("torque_limit" in data["simulation"])
     assert ("hold" in kinds) == ("control_period" in data["simulation"])
     disturbed = [b for b in diagram.blocks if b.above is not None and b.above.kind == "disturbance"]
-    assert len(disturbed) == (1 if data.get("disturbance") else 0)
+    stops = data["simulation"].get("joint_limits") == "stop"   # the simulator's joint stops (S4)
+    assert len(disturbed) == (1 if data.get("disturbance") or stops else 0)
     if disturbed:
-        assert len(disturbed[0].above.lines) == len(data["disturbance"])
+        assert len(disturbed[0].above.lines) == len(data.get("disturbance", [])) + stops
     plant = diagram.blocks[-2]
     environment = data.get("environment", {}).get("type", "free_space")
     assert (plant.above is not None) == (environment != "free_space")

@@ -147,8 +147,10 @@ def test_quick_report_draws_the_main_scopes_of_each_run_alone(report):
     figures = _elements(path.read_text(encoding="utf-8")).figures
     drawn = {name: [f.removeprefix(f"fig-{name}-") for f in figures if f.startswith(f"fig-{name}-")]
              for name in scenarios}
-    assert drawn == {"a6_pd_online": ["positions"], "a7_id_via_points": ["positions"],
-                     "a8_case1_sine": ["positions", "estimates"], "a11_compliance": ["p", "forces"]}
+    # Each after its closed loop's block diagram.
+    assert drawn == {"a6_pd_online": ["loop", "positions"], "a7_id_via_points": ["loop", "positions"],
+                     "a8_case1_sine": ["loop", "positions", "estimates"],
+                     "a11_compliance": ["loop", "p", "forces"]}
 
 
 class _ConnectionRecorder:

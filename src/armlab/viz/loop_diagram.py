@@ -329,8 +329,8 @@ def _environment(environment) -> Block | None:
     return Block("environment", f"environment {type(environment).__name__}")
 
 
-def _disturbance(terms) -> Block:
-    lines = []
+def _disturbance(terms, stops: bool) -> Block:
+    lines = ["joint stops (S4) beyond the joint limits"] if stops else []
     for term in terms:
         described = term.describe() if hasattr(term, "describe") else {"type": type(term).__name__}
         kind = _words(str(described.pop("type", type(term).__name__)))
@@ -338,7 +338,7 @@ def _disturbance(terms) -> Block:
                            for key, value in described.items()
                            if np.asarray(value).dtype.kind in "fiu" and np.size(value) <= 3)
         lines.append(f"{kind}: {values}" if values else kind)
-    return Block("disturbance", "disturbance τ_d", tuple(lines))
+    return Block("disturbance", "disturbance τ_d (S2)", tuple(lines))
 
 
 def _plant_block(plant, environment: Block | None, settings: dict, disturbed: bool) -> Block:
@@ -346,7 +346,7 @@ def _plant_block(plant, environment: Block | None, settings: dict, disturbed: bo
     method = settings.get("method", "rk4")
     step = f", dt = {number(settings['dt'])} s" if "dt" in settings else ""
     joints = f"{plant.n} joint{'s' if plant.n > 1 else ''}"
-    return Block("plant", f"plant {plant.name}\nB(q) q̈ + C q̇ + F q̇ + g(q)\n    = {inputs}",
+    return Block("plant", f"plant {plant.name} (S1)\nB(q) q̈ + C q̇ + F q̇ + g(q)\n    = {inputs}",
                  (f"{joints}, {method}{step}",), output="q, q̇",
                  above=environment, above_label="h_e", exchange="x_e" if environment is not None else "")
 
@@ -357,17 +357,19 @@ def loop_diagram(scenario) -> LoopDiagram:
     blocks = law_blocks(controller, plant)
     period = settings.get("control_period")
     if period is not None:
-        blocks.append(Block("hold", "zero-order hold", (f"T_c = {number(period)} s",), output="τ"))
+        blocks.append(Block("hold", "zero-order hold (S3)", (f"T_c = {number(period)} s",), output="τ"))
     limit = settings.get("torque_limit")
     if limit is not None and np.any(np.isfinite(limit)):
         values = np.broadcast_to(np.asarray(limit, dtype=float), (plant.n,))
         text = number(values[0]) if np.all(values == values[0]) else vector(values)
         blocks.append(Block("saturation", "saturation", (f"|τ_i| ≤ {text} N·m / N",), output="τ"))
-    if scenario.disturbance:
-        blocks.append(Block("sum", "Σ", output="τ + τ_d", above=_disturbance(scenario.disturbance),
+    stops = settings.get("joint_limits") == "stop"
+    disturbed = bool(scenario.disturbance) or stops
+    if disturbed:
+        blocks.append(Block("sum", "Σ", output="τ + τ_d", above=_disturbance(scenario.disturbance, stops),
                             above_label="τ_d"))
     environment = _environment(scenario.environment)
-    blocks.append(_plant_block(plant, environment, settings, bool(scenario.disturbance)))
+    blocks.append(_plant_block(plant, environment, settings, disturbed))
     read = {signal for block in blocks for signal in block.reads}
     signals = tuple(s for s in SIGNAL_ORDER if s in read)
     sensed = ["encoders: q, q̇"]
