@@ -207,9 +207,12 @@ def _task_gains(c, kp="K_P", kd="K_D") -> tuple[str, ...]:
     return (gain(kp, described["kp"]), gain(kd, described["kd"]), f"task: {_task_labels(c.task)}")
 
 
-def _error_sum(c) -> Block:
-    where = "in Σ_d (T1–T4)" if c.frame == "desired" else "in Σ_0"
-    return Block("sum", "Σ", reads=(X, XD), output=f"x̃, x̃̇ {where}")
+def _error_sum(c, rate: bool = True) -> Block:
+    """x̃ (and x̃̇ when the law reads it) in the controller's frame."""
+    where = "in Σ_d (T1–T4)" if c.frame == "desired" else "in Σ_0 (T6)"
+    if rate:
+        return Block("sum", "Σ", reads=(X, XD), output=f"x̃, x̃̇ {where}")
+    return Block("sum", "Σ", reads=(X,), output=f"x̃ {where}")
 
 
 def _operational_pd(c: OperationalPD, plant) -> list[Block]:
@@ -219,7 +222,8 @@ def _operational_pd(c: OperationalPD, plant) -> list[Block]:
     damping = c.describe()["joint_damping"]
     if np.any(np.asarray(damping) != 0):
         lines.append(gain("K_q", damping))
-    return [_error_sum(c),
+    # The PD damps J_s q̇ (C9, C11): it reads q̇, not the task-space rate x̃̇.
+    return [_error_sum(c, rate=False),
             Block("law", f"{name} ({tag})\nτ = g(q) + J_sᵀ(K_P x̃ − K_D J_s q̇) − K_q q̇", tuple(lines),
                   reads=(Q, QD), output="τ")]
 
