@@ -275,9 +275,10 @@ def _force(c, plant) -> list[Block]:
         blocks.append(Block("sum", "Σ", reads=(X, XD), output="x_F − x_e"))
         law = "inner position loop (C14)\nJ y = M_d⁻¹(K_P (x_F − x_e) − K_D ẋ_e)\n      + c"
     else:
-        blocks.append(Block("sum", "Σ", reads=(XD,), output="x_F, ẋ_e"))
+        # K_P x_F − K_D ẋ_e adds a position to a velocity through different gains: no Σ of them.
         law = "inner velocity loop (C14)\nJ y = M_d⁻¹(K_P x_F − K_D ẋ_e) + c"
-    blocks.append(Block("law", law, motion, reads=(Q, QD), output="y"))
+    reads = (Q, QD, XD) if not parallel and c.inner == "velocity" else (Q, QD)
+    blocks.append(Block("law", law, motion, reads=reads, output="y"))
     blocks.append(Block("law", "inner loop\nτ = B(q) y + n(q, q̇) + Jᵀ h_e", _model_line(c, plant),
                         reads=(Q, QD, H), output="τ"))
     return blocks
