@@ -129,6 +129,7 @@ def test_report_is_self_contained_and_complete(report):
         number = assignment_number(name)
         assert f"A{number}" in page.sections if number else "other" in page.sections
         assert any(f.startswith(f"fig-{name}-") for f in page.figures), name
+        assert f"fig-{name}-loop" in page.figures, name  # its block diagram
     from PIL import Image
 
     for src in page.images:
@@ -146,8 +147,10 @@ def test_quick_report_draws_the_main_scopes_of_each_run_alone(report):
     figures = _elements(path.read_text(encoding="utf-8")).figures
     drawn = {name: [f.removeprefix(f"fig-{name}-") for f in figures if f.startswith(f"fig-{name}-")]
              for name in scenarios}
-    assert drawn == {"a6_pd_online": ["positions"], "a7_id_via_points": ["positions"],
-                     "a8_case1_sine": ["positions", "estimates"], "a11_compliance": ["p", "forces"]}
+    # Each after its closed loop's block diagram.
+    assert drawn == {"a6_pd_online": ["loop", "positions"], "a7_id_via_points": ["loop", "positions"],
+                     "a8_case1_sine": ["loop", "positions", "estimates"],
+                     "a11_compliance": ["loop", "p", "forces"]}
 
 
 class _ConnectionRecorder:
@@ -300,6 +303,12 @@ def test_animation_subject_is_chosen_early_only_when_no_pending_run_can_change_i
     assert animation_subject([diverged, free], "prp", final=False) is None  # not a final choice yet
     assert animation_subject([diverged, free], "prp") is free
     assert animation_subject([], "prp") is None
+    # A run that took a joint past its limits (into its stop) is not animated: the arm would
+    # slide through its end stop instead of showing its course.
+    past = run("past_its_stop", prp, 0.8, wall)
+    past.result.meta = {"joint_limits": {"mode": "warn", "crossed": {"d3": {"t": 0.5}}}}
+    assert animation_subject([small, big, past], "prp") is big
+    assert animation_subject([past], "prp") is past  # the only run there is
 
 
 def _ink_runs(pixels: np.ndarray) -> int:
@@ -485,3 +494,22 @@ def test_a_report_worker_leaves_when_its_parent_is_killed(tmp_path):
         time.sleep(0.1)
     os.kill(worker, signal.SIGKILL)
     raise AssertionError("the worker outlived its killed parent by 10 s")
+
+
+def test_every_equation_tag_an_experiment_names_is_defined_in_it(report):
+    """Each article and seed note carries a legend of the tags (C2, E3, T1 …) its text names."""
+    from armlab.viz.tags import notation_tags, theory_tags
+
+    defined = set(notation_tags()) | set(theory_tags())
+    text = report[0].read_text(encoding="utf-8")
+    blocks = re.findall(r"<article .*?</article>|<aside .*?</aside>", text, flags=re.S)
+    assert blocks
+    checked = 0
+    for block in blocks:
+        legend = re.search(r'<div class="note tags">(.*?)</div>', block, flags=re.S)
+        body = re.sub(r'<div class="note tags">.*?</div>|<[^>]+>|data:[^"]+', " ", block, flags=re.S)
+        named = {tag for tag in re.findall(r"(?<![\w^_])([CKDRSTE]\d{1,2})(?!\w)", body) if tag in defined}
+        given = set(re.findall(r"<li><b>(\w+)</b>", legend.group(1))) if legend else set()
+        assert named <= given, (block[:120], named - given)
+        checked += bool(named)
+    assert checked >= 3

@@ -12,7 +12,10 @@ Definitions (each over one component e(t) sampled at times t; "the window" is th
 * overshoot — how far e goes past e_∞ on the side opposite to its start, in % of the initial
   distance |e(t_0) − e_∞| (0 for a monotone response); defined for step responses only, where
   e starts at its largest distance from e_∞ (``None`` otherwise, e.g. a velocity error);
-* time at a limit — the share of samples with |τ| at the limit (within 1e-9 relative).
+* time at a limit — the share of samples with |τ| at the limit (within 1e-9 relative);
+* zero to rounding — a component whose magnitude stays below ``ROUNDING`` = 1e-10 (SI units)
+  over the whole run: floating-point residue, not a response (no quantity of the seed's
+  experiments is that small), so none of the numbers above is computed on it.
 """
 
 from __future__ import annotations
@@ -23,6 +26,8 @@ import numpy as np
 
 WINDOW = 0.05
 BAND = 0.02
+ROUNDING = 1e-10
+"""[SI] a signal whose magnitude stays below this over a run is zero to rounding."""
 FORCE_REFERENCES = ("f_d", "f_des", "h_d", "h_des", "f_ref")
 """Names of the logged signals that carry a desired contact force, the first one present wins."""
 
@@ -107,3 +112,12 @@ def overshoot(t: np.ndarray, e: np.ndarray, fraction: float = WINDOW) -> float |
 def time_at_limit(tau: np.ndarray, limit: float) -> float:
     """Share [%] of the samples of ``tau`` at ``|limit|`` (saturated)."""
     return 100.0 * float(np.mean(np.abs(tau) >= abs(limit) * (1.0 - 1e-9)))
+
+
+def at_rounding(e: np.ndarray) -> np.ndarray:
+    """Per column of ``e`` ((R,) or (R, k)): True where every finite sample is below
+    :data:`ROUNDING` in magnitude (a column with no finite sample is not)."""
+    e = np.asarray(e, dtype=float).reshape(len(e), -1)
+    finite = np.isfinite(e)
+    largest = np.max(np.where(finite, np.abs(e), 0.0), axis=0)
+    return finite.any(axis=0) & (largest < ROUNDING)

@@ -14,7 +14,8 @@ def register(subparsers) -> None:
     parser = subparsers.add_parser(
         "run", help="run a scenario (see `armlab scenarios`) and write its data and scopes",
         description="Simulate SCENARIO (a bundled scenario name or a scenario .toml file), print a "
-                    "summary and write <name>.npz and <name>.csv (and with --plot the scope PNGs) "
+                    "summary and write <name>.npz and <name>.csv (with --plot the scope PNGs, with "
+                    "--diagram the block diagram of its closed loop) "
                     "into --out.  A run that diverges, is stopped by its step budget or is "
                     "interrupted (Ctrl-C) keeps its data up to then, marked so in the files.  "
                     "Exit code 0 when the run ends as its scenario expects (expect = \"diverged\" "
@@ -23,6 +24,8 @@ def register(subparsers) -> None:
     parser.add_argument("scenario", metavar="SCENARIO", help="bundled scenario name or .toml file")
     parser.add_argument("--out", metavar="DIR", default="runs", help="output folder (default: runs)")
     parser.add_argument("--plot", action="store_true", help="also draw the scopes as PNG")
+    parser.add_argument("--diagram", action="store_true",
+                        help="also draw the block diagram of the closed loop as <name>_loop.png")
     parser.add_argument("--t-final", type=float, metavar="T", help="simulate T seconds instead")
     parser.add_argument("--method", choices=("rk4", "adaptive"), help="override the integrator")
     parser.add_argument("--quiet", action="store_true", help="no progress lines and no warnings")
@@ -41,7 +44,7 @@ def run(args) -> int:
         if f".{fmt}" not in FORMATS:
             raise CommandError(f"--format: unknown format {fmt!r} (use npz, csv, parquet)")
     result, written = run_scenario(args.scenario, out_dir=args.out, formats=formats, plot=args.plot,
-                                   t_final=args.t_final, method=args.method,
+                                   diagram=args.diagram, t_final=args.t_final, method=args.method,
                                    progress=None if args.quiet else sys.stderr)
     final = ", ".join(f"{label} {value:+.4g}" for label, value in
                       zip(result.labels["q"], result.q[-1], strict=True))
@@ -67,11 +70,12 @@ def run(args) -> int:
     return OK if result.status == expected else DIVERGED
 
 
-def run_scenario(name_or_path, *, out_dir=None, formats=("npz", "csv"), plot=False, t_final=None,
-                 method=None, progress=None):
+def run_scenario(name_or_path, *, out_dir=None, formats=("npz", "csv"), plot=False, diagram=False,
+                 t_final=None, method=None, progress=None):
     """Run a scenario; returns ``(result, written_paths)``.
 
-    ``out_dir``: where ``<name>.<format>`` (and with ``plot`` the scope PNGs) go; nothing is
+    ``out_dir``: where ``<name>.<format>`` (with ``plot`` the scope PNGs, with ``diagram`` the
+    block diagram ``<name>_loop.png``, :mod:`armlab.viz.loop_diagram`) go; nothing is
     written when it is None.  It is checked for writing before the run and created after it.
     A run that diverged, was stopped by its step budget or was interrupted by Ctrl-C is kept
     (``result.status`` says which) and its data written like any other.  ``progress``: a text
@@ -119,4 +123,8 @@ def run_scenario(name_or_path, *, out_dir=None, formats=("npz", "csv"), plot=Fal
             from armlab.viz.scopes import plot_scopes
 
             written += plot_scopes(result, out_dir, formats=("png",))
+        if diagram:
+            from armlab.viz.diagram_drawing import write_diagram
+
+            written.append(write_diagram(scenario, out_dir / f"{scenario.name}_loop.png"))
     return result, written

@@ -80,6 +80,8 @@ class Experiment:
     # scenarios it discovers, and the theory of the others would cost it SciPy's solvers.
     predictor: object = None
     quick: bool = False  # draw the main scopes alone (armlab.viz.layout.main_scopes)
+    diagram: bytes = b""  # PNG of its closed loop's block diagram (armlab.viz.loop_diagram)
+    diagram_tags: tuple = ()  # the equation tags its blocks name (C2, E3 …)
 
     def run(self):
         """Run the scenario: ``runner()`` returns its SimulationResult."""

@@ -36,6 +36,8 @@ figure { margin: 0; padding: 6px; background: #fff; border: 1px solid var(--rule
 figure img { display: block; max-width: 100%; height: auto; }
 figure.scope img { width: 570px; }
 figure.drawing img { width: 400px; }
+figure.diagram img { width: auto; max-width: 100%; }
+figure.diagram figcaption { max-width: 900px; }
 figure.drawing figcaption { max-width: 400px; }
 figure.view3d iframe { display: block; width: 760px; max-width: 100%; height: 610px; border: 0; }
 figure.view3d figcaption { max-width: 760px; }
@@ -65,6 +67,9 @@ math[display="block"] { font-size: 17px; text-align: left; }
 .diverged { color: var(--bad); font-weight: 600; }
 .missing { color: var(--muted); font-style: italic; }
 .note { color: var(--muted); font-size: 13.5px; }
+.tags { font-size: 12.5px; margin-top: 8px; }
+.tags p { margin: 2px 0; }
+.tags ul { margin: 2px 0; padding-left: 20px; }
 .seed-note { max-width: 1000px; margin: 10px 0 16px; padding: 8px 16px; background: #f4f7fb;
              border-left: 3px solid var(--accent); font-size: 14px; }
 .seed-note h3 { margin: 2px 0 4px; font-size: 16px; }

@@ -34,7 +34,7 @@ axis; every y label carries its unit.  :mod:`armlab.viz.scopes` draws them.
 from __future__ import annotations
 
 import re
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -56,9 +56,11 @@ FORCE_ONLY_CONTROLLERS = ("ForceControl",)
 # The frame the task error's components are in, by the controller's ``frame`` (A9–A13).
 ERROR_FRAMES = {"base": "Σ_0", "desired": "Σ_d"}
 OFF_SCALE = 3.0  # a torque limit this many times the largest |τ| is said, not drawn
+CLIPPED = 4.0  # a commanded τ this many times its limit is cut from the view (its peak said)
 ZOOM_RATIO = 15.0  # a force panel whose range is this many times its tail's gets an inset
 TAIL = 0.25  # the inset shows the last quarter of the run
 INSET_BANDS = {True: (0.40, 0.93), False: (0.07, 0.60)}  # an inset's height in its panel, above / below
+MIDDLE_BAND = (0.2, 0.8)  # between curves at the top and at the bottom (A11: x_d above, x_e at Σ_r)
 NOTE_TAIL = 0.1  # Y(π̂ − π) is summarised by its RMS over the last tenth of the run
 
 
@@ -84,6 +86,7 @@ class Zoom:
     start: float
     ylim: tuple[float, float]
     above: bool = True
+    band: tuple[float, float] | None = None  # its height in the panel, if not INSET_BANDS[above]
 
 
 @dataclass
@@ -101,6 +104,7 @@ class Panel:
     note_at: float | None = None
     log: bool = False
     zoom: Zoom | None = None
+    ylim: tuple[float, float] | None = None  # fixed y limits (else autoscaled)
 
 
 @dataclass
@@ -175,12 +179,48 @@ def _run_of(result) -> _Run:
                 controller if isinstance(controller, dict) else {})
 
 
+DIVERGENCE_RANGE = 3.0  # a diverged run is drawn until its state leaves this many times its early range
+
+
+def before_divergence(result) -> tuple[object, str]:
+    """``result`` cut where a diverged run leaves its range, and a sentence saying so ('' for a
+    run that did not diverge): the first sample where a joint position or velocity exceeds
+    :data:`DIVERGENCE_RANGE` times its largest magnitude over the run's first half.  Drawn
+    whole, the last samples (10¹⁶ rad) would flatten everything before them to a line."""
+    if result.status != "diverged" or len(result.t) < 4:
+        return result, ""
+    state = np.hstack([result.q, result.qd])
+    finite = np.all(np.isfinite(state), axis=1)
+    last = int(np.argmin(finite)) if not finite.all() else len(finite)   # the first non-finite row
+    early = np.abs(state[: max(last // 2, 1)]).max(axis=0)
+    beyond = np.any(np.abs(state[:last]) > DIVERGENCE_RANGE * early + 1e-9, axis=1)
+    stop = int(np.argmax(beyond)) + 1 if beyond.any() else last
+    stop = max(stop, 2)
+    if stop >= len(result.t):
+        return result, ""
+    cut = slice(0, stop)
+    kept = replace(result, t=result.t[cut], q=result.q[cut], qd=result.qd[cut], qdd=result.qdd[cut],
+                   tau=result.tau[cut], z=result.z[cut],
+                   signals={name: value[cut] for name, value in result.signals.items()})
+    note = (f"Drawn up to t = {kept.t[-1]:.4g} s, where the state leaves {DIVERGENCE_RANGE:g}× its range of "
+            f"the first half; the samples after it, to t = {result.t[-1]:.4g} s, are the blow-up.")
+    return kept, note
+
+
+def _noted(scopes: list[Scope], note: str) -> list[Scope]:
+    for scope in scopes:
+        scope.caption = f"{scope.caption} {note}".strip()
+    return scopes
+
+
 def scope_layout(result) -> list[Scope]:
-    """The figures to draw for ``result``, chosen from its groups (see the module docstring)."""
+    """The figures to draw for ``result``, chosen from its groups (see the module docstring);
+    a diverged run's up to its divergence (:func:`before_divergence`)."""
+    result, note = before_divergence(result)
     run = _run_of(result)
-    return [*_tracking_scopes(run), *_error_scopes(run), _torque_scope(run), *_force_scopes(run),
-            *_estimate_scopes(run), *_lyapunov_scopes(run), *_singular_value_scopes(run),
-            *_signal_scopes(run)]
+    return _noted([*_tracking_scopes(run), *_error_scopes(run), _torque_scope(run), *_force_scopes(run),
+                   *_estimate_scopes(run), *_lyapunov_scopes(run), *_singular_value_scopes(run),
+                   *_signal_scopes(run)], note)
 
 
 def main_scopes(result) -> list[Scope]:
@@ -190,9 +230,10 @@ def main_scopes(result) -> list[Scope]:
     (``forces``, A11–A15) and the parameter estimates (``estimates``, A8).  Built alone, not
     picked from the whole layout: the errors' designed response would import SciPy's signal
     package (over a second)."""
+    result, note = before_divergence(result)
     run = _run_of(result)
     tracking = _tracking_scopes(run)
-    return [*(tracking[1:] or tracking), *_force_scopes(run), *_estimate_scopes(run)]
+    return _noted([*(tracking[1:] or tracking), *_force_scopes(run), *_estimate_scopes(run)], note)
 
 
 # ----------------------------------------------------------------------------- tracking
@@ -249,9 +290,40 @@ def _tracking_scopes(run: _Run) -> list[Scope]:
             rest = dict(color=REST, lw=1.0, ls=(0, (6, 3)), label="Σ_r (spring rest)")
             for panel, value in zip(panels, _rest_position(run), strict=False):
                 panel.hlines.append((value, rest))
+                zoom = _rest_zoom(run.t, panel, value)
+                if zoom is not None:
+                    final = float(np.mean(panel.curves[0][2][_tail(run.t, 0.05)]))
+                    panel.zoom, panel.note_at = zoom, final
+                    panel.note = f"final {final:.5g} {run.units[name][0]}:\n{final - value:+.3g} from Σ_r"
             title += ", spring rest Σ_r"
         scopes.append(Scope(name, title, panels))
     return scopes
+
+
+def _rest_zoom(t: np.ndarray, panel: Panel, rest: float) -> Zoom | None:
+    """An inset of the last :data:`TAIL` of the run around the final value of the panel's
+    first curve (the actual position) and the spring's rest level ``rest`` when the two are
+    :data:`ZOOM_RATIO` times closer than the panel's range (A11: 0.2 mm from the rest plane
+    on a 0.1 m scale), in the half of the panel its curves do not run through; else None."""
+    tail = _tail(t, TAIL)
+    y = panel.curves[0][2]
+    near = np.append(y[tail], rest)
+    every = np.concatenate([curve[2] for curve in panel.curves] + [[rest]])
+    if not (np.all(np.isfinite(near)) and np.any(np.isfinite(every))):
+        return None
+    low, high = float(near.min()), float(near.max())
+    full_low, full_high = float(np.nanmin(every)), float(np.nanmax(every))
+    width = high - low
+    if width < 1e-9 or full_high - full_low < ZOOM_RATIO * width:
+        return None
+    right = t >= t[0] + 0.5 * (t[-1] - t[0])
+    there = (np.concatenate([curve[2][right] for curve in panel.curves]) - full_low) / (full_high - full_low)
+    there = (there + 0.05) / 1.1
+    ylim = (low - 0.5 * width, high + 0.5 * width)
+    for band in (INSET_BANDS[True], INSET_BANDS[False], MIDDLE_BAND):
+        if not np.any((there > band[0] - 0.02) & (there < band[1] + 0.02)):
+            return Zoom(float(t[tail.start]), ylim, above=band != INSET_BANDS[False], band=band)
+    return None
 
 
 def _rest_position(run: _Run) -> np.ndarray | None:
@@ -331,9 +403,25 @@ def _torque_scope(run: _Run) -> Scope:
             else:
                 panel.hlines += [(limit[k], dict(color=LIMIT, lw=1.0, ls="-.", label="limit ±τ_max")),
                                  (-limit[k], dict(color=LIMIT, lw=1.0, ls="-."))]
+                _saturation_view(panel, float(limit[k]), unit)
         panels.append(panel)
     run.used.update({"tau", "tau_cmd", "tau_dist"})
     return Scope("torques", "joint torques / forces τ", panels)
+
+
+def _saturation_view(panel: Panel, limit: float, unit: str) -> None:
+    """Where the commanded τ goes :data:`CLIPPED` times past ±τ_max (A7 ω_n = 60: 540 N against
+    20 N), the panel shows the band ±τ_max and the applied τ inside it, not the commanded peak
+    that would flatten both to a line; the note gives the peak."""
+    commanded = [y for label, _, y, _ in panel.curves if label == "commanded"]
+    peak = _peak(commanded)
+    if not commanded or peak <= CLIPPED * limit:
+        return
+    others = _peak(y for label, _, y, _ in panel.curves if label != "commanded")
+    reach = max(1.35 * limit, 1.1 * others)
+    panel.ylim = (-reach, reach)
+    signed = float(commanded[0][np.nanargmax(np.abs(commanded[0]))])
+    panel.note = f"commanded τ peaks at\n{signed:.3g} {unit}: off-scale".replace("  ", " ")
 
 
 # ----------------------------------------------------------------------------- forces

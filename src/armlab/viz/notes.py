@@ -37,6 +37,18 @@ def seed_notes(number: int, docs: Path = DOCS) -> list[tuple[str, str]]:
     return found
 
 
+# "above" that points at the page's text, not at a place in space ("above the surface", "above
+# its rest plane", "above x_d", "above 0.1 m").
+POINTER = re.compile(r"\babove\b(?!\s+(?:the|its?|an?|[xyzσΣ]|\d|in docs/))")
+
+
+def anchored(text: str, page: str) -> str:
+    """``text`` of a note taken out of its docs ``page`` with each "see above", "the output
+    above" … pointing at the page ("above in docs/A6-joint-pd.md"): the report shows the note
+    without what stood above it."""
+    return POINTER.sub(f"above in {page}", text) if page else text
+
+
 def source_name(number: int, docs: Path = DOCS) -> str:
     """The docs page of assignment ``number`` as the report names it (``docs/A7-….md``)."""
     pages = sorted(docs.glob(f"A{number}-*.md")) if docs.is_dir() else []

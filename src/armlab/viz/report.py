@@ -20,6 +20,7 @@ script; without plotly it has no views and says so in one line.
 from __future__ import annotations
 
 import os
+import re
 import threading
 import time
 from dataclasses import replace
@@ -46,9 +47,10 @@ from armlab.viz.experiments import (  # noqa: F401 — ReportError, assignment_n
     experiment_from_scenario,
 )
 from armlab.viz.metrics import Metric
-from armlab.viz.notes import markdown_html, metric_definitions, seed_notes, source_name
+from armlab.viz.notes import anchored, markdown_html, metric_definitions, seed_notes, source_name
 from armlab.viz.report_runs import run_all
 from armlab.viz.scopes import SCOPE_DPI, scope_png
+from armlab.viz.tags import legend_html, used_tags
 from armlab.viz.view_pages import plotly_js, view_iframe, write_assets, write_view_page
 
 ASSIGNMENTS = {
@@ -218,6 +220,14 @@ def _experiment_html(exp: Experiment) -> str:
         # A declared joint limit left (or a stop met) is part of what the run shows.
         line = describe_crossing(exp.robot, name, crossing, limits.get("mode", "warn"))
         parts.append(f'<p class="diverged">{html.escape(line)}</p>')
+    if exp.diagram:
+        caption = (f"{exp.name}: the closed loop as simulated, drawn from the scenario's objects "
+                   "(controller, gains, saturation, disturbance, environment, sensors); under the row, "
+                   "the measured signals fed back."
+                   + (f" Its blocks' equations: {', '.join(exp.diagram_tags)}." if exp.diagram_tags else ""))
+        parts.append('<div class="figures">' + html.figure(html.png_data_uri(exp.diagram), caption,
+                                                            kind="diagram", ident=f"fig-{exp.name}-loop")
+                     + "</div>")
     if exp.figures:
         items = [html.figure(html.png_data_uri(data), caption, kind="scope", ident=f"fig-{exp.name}-{scope}")
                  for scope, caption, data in exp.figures]
@@ -227,8 +237,16 @@ def _experiment_html(exp: Experiment) -> str:
                    f"(the run resampled to at most {VIEW_FRAMES} frames). The page {exp.view} next to "
                    "this file draws it with plotly.js from that folder: no network.")
         parts.append('<div class="figures">' + view_iframe(exp.view, exp.name, caption) + "</div>")
+    parts.append(_tags_html(exp, "".join(parts)))
     parts.append("</article>")
     return "".join(parts)
+
+
+def _tags_html(exp: Experiment, text: str) -> str:
+    """The legend of the equation tags the article's text names (:mod:`armlab.viz.tags`); its
+    theory rows' tags are the theory's."""
+    theory = {tag for p in exp.predicted for tag in used_tags(getattr(p, "quantity", ""))}
+    return legend_html(re.sub(r"<[^>]+>|data:[^\"]+", " ", text), theory)
 
 
 def _comparisons_html(planned: list[Experiment]) -> dict[int, list[str]]:
@@ -416,12 +434,14 @@ def build_report(robot: str | Robot = "prp", out_dir: str | Path = "report", *, 
 def _seed_note_html(number: int) -> str:
     """Assignment ``number``'s notes on the seed, read from its docs page now (one source for
     the docs and the report); a line saying they are missing when the page is not there."""
-    notes = seed_notes(number)
+    page = source_name(number)
+    notes = [(heading, anchored(text, page)) for heading, text in seed_notes(number)]
     if not notes:
         return ""
     parts = ['<aside class="seed-note"><h3>The seed and armlab</h3>']
     for heading, text in notes:
         parts.append(f"<h4>{html.escape(heading)}</h4>{markdown_html(text)}")
+    parts.append(legend_html(" ".join(text for _, text in notes)))
     parts.append(f'<p class="note">From {html.escape(source_name(number))}.</p></aside>')
     return "".join(parts)
 
@@ -443,8 +463,9 @@ def _motion(exp: Experiment) -> float:
 
 def animation_subject(planned: list[Experiment], robot_name: str, *, final: bool = True):
     """The run the report animates: among the runs of ``robot_name`` (other robots if it has
-    none) that did not diverge (else all) and have an environment plane (else all), the one
-    whose joints travel furthest relative to their ranges; None if there is none.
+    none) that did not diverge and kept their joints within their limits (else all) and have an
+    environment plane (else all), the one whose joints travel furthest relative to their
+    ranges; None if there is none.
 
     With ``final=False`` some runs may still be unfinished: the subject is returned only if
     no unfinished run could change it (it is a finished plane run of the robot that did not
@@ -456,6 +477,7 @@ def animation_subject(planned: list[Experiment], robot_name: str, *, final: bool
             return None
     runs = [e for e in runs if e.robot.name == robot_name] or runs
     runs = [e for e in runs if e.result.status == "ok"] or runs
+    runs = [e for e in runs if not _left_limits(e)] or runs
     if not runs:
         return None
     with_plane = [e for e in runs if e.plane is not None]
@@ -464,6 +486,13 @@ def animation_subject(planned: list[Experiment], robot_name: str, *, final: bool
                           and subject.result.status == "ok"):
         return None
     return subject
+
+
+def _left_limits(exp: Experiment) -> bool:
+    """True when the run took a joint past its declared limits (or into its stop): animated,
+    the arm would slide through its end stop, not show its course."""
+    limits = (getattr(exp.result, "meta", None) or {}).get("joint_limits") or {}
+    return bool(limits.get("crossed"))
 
 
 def _animation(exp: Experiment | None, out_dir: Path) -> str:

@@ -40,6 +40,25 @@ def scope_figures(exp: Experiment) -> list[tuple[str, str, bytes]]:
     return figures
 
 
+def loop_figure(scenario: str) -> tuple[bytes, tuple[str, ...]]:
+    """The PNG of the block diagram of the scenario named (or filed) ``scenario`` and the
+    equation tags its blocks name; empty when the scenario no longer loads (its run's error
+    says why)."""
+    from armlab.scenarios import load_scenario
+    from armlab.viz.diagram_drawing import draw_loop_diagram
+    from armlab.viz.html import figure_png
+    from armlab.viz.loop_diagram import loop_diagram
+    from armlab.viz.tags import used_tags
+
+    try:
+        diagram = loop_diagram(load_scenario(scenario))
+    except ArmlabError:
+        return b"", ()
+    text = " ".join(" ".join([block.title, *block.lines, block.above.title if block.above else ""])
+                    for block in diagram.blocks)
+    return figure_png(draw_loop_diagram(diagram)), tuple(used_tags(text))
+
+
 def _theory_scopes(exp: Experiment) -> list:
     """The linear system an impedance run is designed to follow, over the run (A12); the
     controller's M_d and Σ_d are read from its scenario, which the result does not log."""
@@ -79,6 +98,8 @@ def evaluate(exp: Experiment) -> Experiment:
             exp.predicted = exp.predictor()
         exp.metrics = measure(exp.result, exp.predicted)
         exp.figures = scope_figures(exp)
+    if exp.scenario is not None and not exp.diagram:
+        exp.diagram, exp.diagram_tags = loop_figure(exp.scenario)
     exp.runner = exp.predictor = None  # closures do not cross process boundaries
     return exp
 
@@ -187,7 +208,8 @@ def run_all(planned: list[Experiment], progress: tqdm, workers: int, main_job, o
         for future in as_completed(futures):
             done = future.result()
             target = by_name[futures[future]]
-            for key in ("result", "error", "seconds", "metrics", "figures", "robot", "plane"):
+            for key in ("result", "error", "seconds", "metrics", "figures", "robot", "plane", "diagram",
+                        "diagram_tags"):
                 setattr(target, key, getattr(done, key))
             progress.set_postfix_str(f"ran {done.name} ({done.seconds:.1f} s)")
             progress.update()

@@ -24,6 +24,7 @@ from matplotlib.transforms import blended_transform_factory
 
 from armlab.errors import ScopeError
 from armlab.files import replacing
+from armlab.metrics import ROUNDING
 from armlab.viz.html import figure_png
 from armlab.viz.layout import (  # noqa: F401  (also imported from here by callers)
     ACTUAL,
@@ -41,7 +42,7 @@ from armlab.viz.layout import (  # noqa: F401  (also imported from here by calle
 )
 
 MAX_POINTS = 1000
-ZERO = 1e-10  # SI magnitudes below this are rounding noise (no quantity here is that small)
+ZERO = ROUNDING  # SI magnitudes below this are rounding noise (no quantity here is that small)
 FORMATS = ("png", "svg")
 SCOPE_DPI = 120  # scope PNGs of `armlab run --plot` and the report
 # Figure geometry [in]: the panels' left margin, the column of legends and notes right of them
@@ -50,6 +51,7 @@ SCOPE_DPI = 120  # scope PNGs of `armlab run --plot` and the report
 WIDTH, LEFT, COLUMN, GAP = 8.0, 0.92, 1.55, 0.1
 ROW, TITLE, AXIS, FOOT_LINE = 1.55, 0.42, 0.45, 0.15
 FOOT_CHARACTERS = 130  # a footnote line at its font size across the figure
+TITLE_CHARACTERS, TITLE_LINE = 88, 0.2  # a title line at its font size across the figure; its height [in]
 FONT, SMALL = 9, 7.5
 
 
@@ -105,8 +107,13 @@ def _footnotes(scope: Scope, diagnosis: str) -> list[tuple[str, str]]:
     return [("\n".join(textwrap.wrap(text, FOOT_CHARACTERS)), colour) for text, colour in notes if text]
 
 
-def _figure_size(rows: int, foot_lines: int = 0) -> tuple[float, float]:
-    return WIDTH, TITLE + AXIS - 0.27 + ROW * rows + FOOT_LINE * foot_lines
+def _figure_size(rows: int, foot_lines: int = 0, title_lines: int = 1) -> tuple[float, float]:
+    return WIDTH, TITLE + TITLE_LINE * (title_lines - 1) + AXIS - 0.27 + ROW * rows + FOOT_LINE * foot_lines
+
+
+def _title_lines(title: str) -> str:
+    """The figure title wrapped to the figure's width (a long one would be cut at its edges)."""
+    return "\n".join(textwrap.wrap(title, TITLE_CHARACTERS)) or title
 
 
 def _span(scope: Scope) -> tuple[float, float]:
@@ -134,12 +141,16 @@ def _draw_zoom(ax, panel: Panel, end: float) -> None:
     """The inset of ``panel.zoom``: the panel's curves from its start to ``end``, in the right
     half of ``ax``, above or below the curves as the layout chose."""
     zoom = panel.zoom
-    low, high = INSET_BANDS[zoom.above]
+    low, high = zoom.band or INSET_BANDS[zoom.above]
     inset = ax.inset_axes([0.5, low, 0.47, high - low])
     for _, t, y, style in panel.curves:
         t, y = np.asarray(t), np.asarray(y)
         inside = t >= zoom.start
         inset.plot(*decimate(t[inside], y[inside]), **style)
+    for value, style in panel.hlines:
+        # A level inside the inset (a spring's rest plane) is what the zoom compares with.
+        if zoom.ylim[0] <= value <= zoom.ylim[1]:
+            inset.axhline(value, **{key: v for key, v in style.items() if key != "label"})
     inset.set_xlim(zoom.start, end)
     inset.set_ylim(*zoom.ylim)
     inset.grid(True, lw=0.4, alpha=0.6)
@@ -150,7 +161,10 @@ def _draw_zoom(ax, panel: Panel, end: float) -> None:
 def _draw_scope(fig, axes, scope: Scope, title_prefix: str, diagnosis: str) -> None:
     """Draw ``scope`` on ``fig``, whose ``axes`` (one per panel) are styled and empty."""
     footnotes = _footnotes(scope, diagnosis)
-    fig.set_size_inches(_figure_size(len(axes), sum(text.count("\n") + 1 for text, _ in footnotes)))
+    title = _title_lines(f"{title_prefix}: {scope.title}" if title_prefix else scope.title)
+    title_lines = title.count("\n") + 1
+    foot_lines = sum(text.count("\n") + 1 for text, _ in footnotes)
+    fig.set_size_inches(_figure_size(len(axes), foot_lines, title_lines))
     start, end = _span(scope)
     beside = 1.0 + GAP / (WIDTH - LEFT - COLUMN)  # the column right of the panels, in axes widths
     notes = {}
@@ -162,6 +176,8 @@ def _draw_scope(fig, axes, scope: Scope, title_prefix: str, diagnosis: str) -> N
             ax.plot(td, yd, label=label, **style)
         for value, style in panel.hlines:
             ax.axhline(value, **style)
+        if panel.ylim is not None:
+            ax.set_ylim(*panel.ylim)
         note, level = panel.note, panel.note_at
         if _rounding_noise(panel):
             # Values like 1e-16 are rounding noise; autoscaled they would look like a signal.
@@ -172,7 +188,7 @@ def _draw_scope(fig, axes, scope: Scope, title_prefix: str, diagnosis: str) -> N
         if panel.zoom is not None:
             _draw_zoom(ax, panel, end)
             # Beside the inset, away from the final value (which the tail puts in the other half).
-            middle = sum(INSET_BANDS[panel.zoom.above]) / 2
+            middle = sum(panel.zoom.band or INSET_BANDS[panel.zoom.above]) / 2
             ax.text(beside, middle, f"inset: zoom on\nt ≥ {panel.zoom.start:.3g} s",
                     transform=ax.transAxes, ha="left", va="center", fontsize=SMALL, color="0.15")
     axes[0].set_xlim(start, end)  # shared: every panel spans the run
@@ -194,8 +210,7 @@ def _draw_scope(fig, axes, scope: Scope, title_prefix: str, diagnosis: str) -> N
             transform = blended_transform_factory(ax.transAxes, ax.transData) if at_value else ax.transAxes
             ax.text(beside, level if at_value else 0.0, note, transform=transform, ha="left",
                     va="center" if at_value else "bottom", fontsize=SMALL, color="0.15", linespacing=1.25)
-    title = f"{title_prefix}: {scope.title}" if title_prefix else scope.title
-    fig.suptitle(title, fontsize=10.5, y=1.0 - 0.1 / fig.get_figheight(), va="top")
+    fig.suptitle(title, fontsize=10.5, y=1.0 - 0.1 / fig.get_figheight(), va="top", linespacing=1.2)
     height = fig.get_figheight()
     bottom = 0.06
     for text, colour in reversed(footnotes):
@@ -203,7 +218,8 @@ def _draw_scope(fig, axes, scope: Scope, title_prefix: str, diagnosis: str) -> N
                  linespacing=1.2, gid="footnote")
         bottom += FOOT_LINE * (text.count("\n") + 1)
     # Fixed margins in inches (tight_layout would cost as much as drawing the figure).
-    fig.subplots_adjust(left=LEFT / WIDTH, right=1.0 - COLUMN / WIDTH, top=1.0 - TITLE / height,
+    top = TITLE + TITLE_LINE * (title_lines - 1)
+    fig.subplots_adjust(left=LEFT / WIDTH, right=1.0 - COLUMN / WIDTH, top=1.0 - top / height,
                         bottom=(AXIS + bottom - 0.06) / height, hspace=0.13)
 
 
