@@ -127,7 +127,7 @@ def test_report_page_escapes_the_robot_text(hostile, tmp_path, monkeypatch):
 
     payload, marker = hostile
     robot = robot_from_dict(_hostile_prp(payload), "hostile.toml")
-    monkeypatch.setattr(report, "_symbolic_sections", lambda robot, progress: {})
+    monkeypatch.setattr(report, "_symbolic_sections", lambda robot, progress, budget: ({}, True))
     monkeypatch.setattr(report, "_drawings", lambda robot: "")
     path = report.build_report(robot, tmp_path / "report", experiments=[], animation=False,
                                show_progress=False, jobs=1)

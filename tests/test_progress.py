@@ -76,7 +76,7 @@ def test_the_report_writes_a_line_per_step_to_a_log(tmp_path, monkeypatch, capsy
     monkeypatch.setenv("ARMLAB_CACHE_DIR", str(tmp_path / "cache"))
     # The drawings and derivations (tens of seconds) are left out; two runs that failed
     # before the report (nothing to simulate) are still steps of their own.
-    monkeypatch.setattr(report, "_symbolic_sections", lambda robot, progress: {})
+    monkeypatch.setattr(report, "_symbolic_sections", lambda robot, progress, budget: ({}, True))
     monkeypatch.setattr(report, "_drawings", lambda robot: "")
     planned = [Experiment(name=name, assignment=6, title=name, description="", parameters=[],
                           error="not run") for name in ("first_run", "second_run")]

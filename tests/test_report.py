@@ -434,9 +434,9 @@ def test_derivations_are_kept_on_disk_keyed_by_robot_and_sources(tmp_path, monke
     monkeypatch.setenv("ARMLAB_CACHE_DIR", str(tmp_path))
     calls = []
 
-    def derive(robot, progress):
+    def derive(robot, progress, budget):
         calls.append(robot.name)
-        return {1: f"<p>{robot.name}</p>", 2: "<p>two</p>"}
+        return {1: f"<p>{robot.name}</p>", 2: "<p>two</p>"}, True
 
     monkeypatch.setattr(report_module, "_symbolic_sections", derive)
     prp, planar = armlab.load_robot("prp"), armlab.load_robot("planar2r")

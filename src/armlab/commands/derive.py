@@ -37,9 +37,25 @@ def register(subparsers) -> None:
     parser.add_argument("--only", choices=("A1", "A2", "A3", "A4", "A5"),
                         help="derive a single assignment")
     parser.add_argument("--quiet", action="store_true", help="no progress lines and no warnings")
+    parser.add_argument("--budget", type=_seconds, default=60.0, metavar="SECONDS",
+                        help="wall-clock time each assignment may take; past it the assignment keeps "
+                             "what it derived and says what it skipped (default: 60; 0: no limit)")
     parser.add_argument("--no-limit", action="store_true",
                         help=f"derive a chain of more than {MAX_JOINTS} joints anyway (it may take hours)")
     parser.set_defaults(func=run)
+
+
+def _seconds(text: str) -> float:
+    import argparse
+    import math
+
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not (math.isfinite(value) and value >= 0):
+        raise argparse.ArgumentTypeError(f"expected a number of seconds ≥ 0, got {text!r}")
+    return value
 
 
 def run(args) -> int:
@@ -61,9 +77,11 @@ def run(args) -> int:
         if not args.quiet:
             print(f"deriving {key} for {robot.n} joints ...", end="", file=sys.stderr, flush=True)
         started = time.perf_counter()
-        sections += derive(robot, frame=args.frame, numeric=args.numeric, only=key)
+        sections += derive(robot, frame=args.frame, numeric=args.numeric, only=key,
+                           budget=args.budget or None)
         if not args.quiet:
-            print(f" {time.perf_counter() - started:.1f} s", file=sys.stderr, flush=True)
+            stopped = "" if sections[-1].complete else f" (budget of {args.budget:g} s spent, rest skipped)"
+            print(f" {time.perf_counter() - started:.1f} s{stopped}", file=sys.stderr, flush=True)
     heading = f"{robot.name}: symbolic model" + (" (numeric parameters)" if args.numeric else "")
     print(render(sections, args.fmt, numeric=args.numeric, heading=heading), end="")
     return 0

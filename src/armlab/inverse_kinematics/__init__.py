@@ -19,6 +19,12 @@ q = 0): |w(q) − s| depends on q3 alone (subproblem 3, ≤ 2 roots), q1, q2 pla
 ≤ 2 pairs), the wrist's rotation gives q4, q5 (subproblem 2) and q6 (subproblem 1): up to 8
 solutions for a full pose, each checked by forward kinematics.
 
+Closed form for a 6R arm with axes 2, 3, 4 parallel and axes 5, 6 meeting (K13, the Universal
+Robots family, ``parallel``): q1 and q5 from the components along the parallel axes that
+joints 2–4 cannot change, q6 from the direction of the parallel axes, then a planar 3R arm:
+up to 8 solutions.  Every closed-form candidate is refined by a few Newton steps and checked
+by forward kinematics, so round-off near a singularity loses no branch.
+
 Damped least squares (K8) for any robot: Levenberg–Marquardt steps
 
     Δq = (JᵀJ + μ I)⁻¹ Jᵀ e,   e = [p_des − p_e; log(R_des R_eᵀ)]   (position rows only for a
@@ -27,7 +33,8 @@ Damped least squares (K8) for any robot: Levenberg–Marquardt steps
 with μ adapted (÷3 on success, ×4 on failure), q clipped into the joint limits, and restarts
 from seeded random configurations.  When the arm has no more joints than the task has rows
 (6 for a pose, 3 for a position) its solutions are isolated, and every start is run: the
-distinct converged ones (|Δq| > 10⁻⁶, angles compared on the circle) are returned, each within
+distinct converged ones (|Δq| > 10⁻⁶, angles compared on the circle, and no two along one
+almost flat valley near a singularity: ``common.same_branch``) are returned, each within
 ``tol`` of the target by forward kinematics — the branches the starts found, not a proof that
 there are no others.  A redundant arm has a continuum of solutions; the first converged one is
 returned.  The orientation error is the rotation vector (K12), so
@@ -46,6 +53,7 @@ import numpy as np
 from armlab.errors import UnreachableTargetError
 from armlab.inverse_kinematics.common import distance, parse_target
 from armlab.inverse_kinematics.dls import dls_kernel, solve_dls
+from armlab.inverse_kinematics.parallel import ParallelAxes6R, parallel_axes_structure, solve_parallel
 from armlab.inverse_kinematics.prp import CylindricalPRP, cylindrical_prp_structure, solve_prp
 from armlab.inverse_kinematics.wrist import (
     SphericalWrist6R,
@@ -56,8 +64,9 @@ from armlab.inverse_kinematics.wrist import (
 from armlab.model.robot import Robot
 from armlab.spatial import euler_code
 
-__all__ = ["METHODS", "CylindricalPRP", "SphericalWrist6R", "UnreachableTargetError", "closed_form_wrist",
-           "cylindrical_prp_structure", "dls_kernel", "inverse_kinematics", "spherical_wrist_structure"]
+__all__ = ["METHODS", "CylindricalPRP", "ParallelAxes6R", "SphericalWrist6R", "UnreachableTargetError",
+           "closed_form_wrist", "cylindrical_prp_structure", "dls_kernel", "inverse_kinematics",
+           "parallel_axes_structure", "spherical_wrist_structure"]
 
 METHODS = ("auto", "closed_form", "dls")
 
@@ -80,9 +89,9 @@ def inverse_kinematics(robot: Robot, target, q0=None, *, frame: str = "base", eu
         and picks the 2π-equivalent of revolute angles.
     method : {"auto", "closed_form", "dls"}
         ``"auto"``: closed form (K7, all branches) for a cylindrical P-R-P arm such as the
-        seed's PRP; closed form (K9, up to 8 branches) for a full pose of a 6R arm with a
-        spherical wrist; multi-start damped least squares (K8: the distinct solutions found,
-        one for a redundant arm) otherwise.  ``"dls"`` forces K8.
+        seed's PRP; closed form (K9, K13, up to 8 branches) for a full pose of a 6R arm with a
+        spherical wrist or with three parallel axes (UR); multi-start damped least squares (K8:
+        the distinct solutions found, one for a redundant arm) otherwise.  ``"dls"`` forces K8.
     respect_limits : bool
         Drop solutions outside the joint limits (DLS keeps q inside them).
     tol : float
@@ -107,11 +116,14 @@ def inverse_kinematics(robot: Robot, target, q0=None, *, frame: str = "base", eu
     reference = np.zeros(robot.n) if q0 is None else q0
     geo = cylindrical_prp_structure(robot) if method != "dls" else None
     wrist = spherical_wrist_structure(robot) if method != "dls" and parsed.R is not None else None
-    if method == "closed_form" and geo is None and wrist is None:
+    parallel = (parallel_axes_structure(robot) if method != "dls" and parsed.R is not None and wrist is None
+                else None)
+    if method == "closed_form" and geo is None and wrist is None and parallel is None:
         raise ValueError(f"method: no closed form for {robot.name!r} (cylindrical P-R-P arms, and "
-                         "6R arms with a spherical wrist given a full pose)")
-    if wrist is not None:
-        solutions = solve_wrist(robot, wrist, parsed, reference, respect_limits, tol)
+                         "6R arms with a spherical wrist or three parallel axes given a full pose)")
+    if wrist is not None or parallel is not None:
+        solutions = (solve_wrist(robot, wrist, parsed, reference, respect_limits, tol) if wrist is not None
+                     else solve_parallel(robot, parallel, parsed, reference, respect_limits, tol))
         if solutions is not None:
             return np.array(solutions)
         # Out of the closed form's reach (or lost to round-off): the numerical solver says why.

@@ -125,13 +125,40 @@ def apply_limits(robot, solutions, target, respect_limits):
         reason="joint limits", best_q=solutions[0], position_error=0.0, orientation_error=0.0)
 
 
-def distinct(robot, solutions, reference):
-    """The solutions wrapped (2π turns) and without repeats (|Δq| < 1e-6, revolute differences
-    on the circle), nearest ``reference`` first."""
+SAME_BRANCH = 1e-6
+"""|Δq| below which two solutions are one (revolute differences on the circle)."""
+
+NEAR_BRANCH = 0.25
+"""|Δq| [rad, m] below which two solutions are one branch when the arm between them stays on
+target (on a continuum of solutions at a singularity, or along an almost flat valley)."""
+
+
+def same_branch(robot, a, b, target=None, tol: float = 1e-9) -> bool:
+    """Whether ``a`` and ``b`` are one solution branch: closer than :data:`SAME_BRANCH`, or,
+    given the ``target``, closer than :data:`NEAR_BRANCH` with the configurations ¼, ½ and ¾
+    of the way between them also within 10 ``tol`` of it.  Near a singularity a solver stops
+    anywhere along an almost flat valley (UR5 at q5 = 10⁻⁴: converged starts 2–6·10⁻⁶ rad
+    apart), at it on a continuum (q4 + q6 fixed); two true branches have a ridge between
+    them, where the residual grows as |Δq|² (10⁻⁹ already at |Δq| ≈ 10⁻⁴ on a 1 m arm)."""
+    d = distance(robot, a, b)
+    if d <= SAME_BRANCH:
+        return True
+    if target is None or d > NEAR_BRANCH:
+        return False
+    diff = b - a
+    revolute = robot.arrays.joint_type == REVOLUTE
+    diff[revolute] = np.angle(np.exp(1j * diff[revolute]))
+    limit = 10 * max(tol, 1e-9)
+    return all(max(residual_norms(robot, a + f * diff, target)) <= limit for f in (0.5, 0.25, 0.75))
+
+
+def distinct(robot, solutions, reference, target=None, tol: float = 1e-9):
+    """The solutions wrapped (2π turns) and without repeats (:func:`same_branch`), nearest
+    ``reference`` first."""
     out = []
     for q in sorted((wrap_revolute(robot, q, reference) for q in solutions),
                     key=lambda q: distance(robot, q, reference)):
-        if all(distance(robot, q, other) > 1e-6 for other in out):
+        if not any(same_branch(robot, q, other, target, tol) for other in out):
             out.append(q)
     return out
 

@@ -106,6 +106,35 @@ def dls_kernel(m, R_des, p_des, full_pose, q_min, q_max, q, max_iter, tol, dampi
     return max_iter
 
 
+POLISH_FROM = 1e-5
+"""Residual [m, rad] of a closed-form candidate still worth Newton steps: round-off near a
+singularity leaves 10⁻⁸–10⁻⁷ (Puma560 at |q5| ≈ 10⁻⁷), a spurious root leaves ≳ 10⁻²."""
+
+
+def verified(robot: Robot, candidates, target, tol: float) -> list[np.ndarray]:
+    """The closed-form ``candidates`` that reach ``target`` within ``tol`` by forward
+    kinematics, each first refined by up to 20 undamped Gauss–Newton steps (:func:`dls_kernel`
+    without joint limits) when its residual is below :data:`POLISH_FROM`."""
+    tol = max(tol, 1e-12)
+    m = robot.arrays
+    n = robot.n
+    ws = kinematics_workspace(n)
+    A, dq, q_try, e, e_try = np.empty((n, n)), np.empty(n), np.empty(n), np.empty(6), np.empty(6)
+    free = np.full(n, np.inf)
+    R_des = target.R if target.R is not None else np.eye(3)
+    out = []
+    for candidate in candidates:
+        q = np.array(candidate, dtype=float)
+        _residual_into(m, q, R_des, target.p, target.R is not None, ws, e)
+        if max(np.linalg.norm(e[:3]), np.linalg.norm(e[3:])) > POLISH_FROM:
+            continue
+        dls_kernel(m, R_des, target.p, target.R is not None, -free, free, q, 20, tol, 1e-12,
+                   ws, A, dq, q_try, e, e_try)
+        if np.linalg.norm(e[:3]) <= tol and np.linalg.norm(e[3:]) <= tol:
+            out.append(q)
+    return out
+
+
 def _starts(robot: Robot, q0, restarts: int, seed: int, respect_limits: bool) -> list[np.ndarray]:
     q_min, q_max = joint_limits(robot)
     if q0 is not None:
@@ -159,7 +188,7 @@ def solve_dls(robot, target, q0, reference, respect_limits, tol, max_iter, resta
     found = [] if robot.n <= rows else None
     q, e_p, e_o = _run_dls(robot, target, starts, respect_limits, tol, max_iter, damping, found)
     if found:
-        return distinct(robot, found, reference)
+        return distinct(robot, found, reference, target, tol)
     if e_p <= tol and e_o <= tol:
         return [wrap_revolute(robot, q, reference)]
     miss = f"{e_p:.6g} m" + ("" if target.R is None else f" and {e_o:.6g} rad")

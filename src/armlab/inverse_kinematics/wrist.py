@@ -19,8 +19,8 @@ from armlab.inverse_kinematics.common import (
     apply_limits,
     axis_rotation,
     distinct,
-    residual_norms,
 )
+from armlab.inverse_kinematics.dls import verified
 from armlab.kernels.kinematics import end_effector_into, joint_frames_into, kinematics_workspace
 from armlab.model.robot import Robot
 
@@ -51,17 +51,25 @@ def _axes_meet(w1, r1, w2, r2, tol):
     return 0.5 * (p1 + p2) if np.linalg.norm(p1 - p2) <= tol else None
 
 
+def screw_axes(robot: Robot) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(ω (n, 3), r (n, 3), T_e(0) (4, 4)): each joint's unit axis and a point on it at q = 0
+    in Σ_0 (the z axis and origin of the frame it moves about), and Σ_e's pose at q = 0."""
+    n = robot.n
+    ws = kinematics_workspace(n)
+    joint_frames_into(robot.arrays, np.zeros(n), ws.R, ws.p)
+    end_effector_into(robot.arrays, ws.R[n - 1], ws.p[n - 1], ws.R_e, ws.p_e)
+    T_e0 = np.eye(4)
+    T_e0[:3, :3], T_e0[:3, 3] = ws.R_e, ws.p_e
+    return np.array([ws.R[i][:, 2] for i in range(n)]), np.array([ws.p[i] for i in range(n)]), T_e0
+
+
 def spherical_wrist_structure(robot: Robot) -> SphericalWrist6R | None:
     """The :class:`SphericalWrist6R` geometry if ``robot`` has six revolute joints, axes 1 and
     2 meeting in a point and axes 4, 5, 6 meeting in another (the PUMA 560 and its kin), else
     None."""
     if robot.n != 6 or any(j.kind != "revolute" for j in robot.joints):
         return None
-    ws = kinematics_workspace(6)
-    joint_frames_into(robot.arrays, np.zeros(6), ws.R, ws.p)
-    end_effector_into(robot.arrays, ws.R[5], ws.p[5], ws.R_e, ws.p_e)
-    omega = np.array([ws.R[i][:, 2] for i in range(6)])
-    point = np.array([ws.p[i] for i in range(6)])
+    omega, point, T_e0 = screw_axes(robot)
     scale = max(1.0, float(np.abs(point).max()))
     tol = STRUCTURE_TOL * scale
     s = _axes_meet(omega[0], point[0], omega[1], point[1], tol)
@@ -69,8 +77,6 @@ def spherical_wrist_structure(robot: Robot) -> SphericalWrist6R | None:
     w56 = _axes_meet(omega[4], point[4], omega[5], point[5], tol)
     if s is None or w45 is None or w56 is None or np.linalg.norm(w45 - w56) > tol:
         return None
-    T_e0 = np.eye(4)
-    T_e0[:3, :3], T_e0[:3, 3] = ws.R_e, ws.p_e
     return SphericalWrist6R(omega=omega, point=point, s=s, w=w45, T_e0=T_e0)
 
 
@@ -102,7 +108,10 @@ def _subproblem2(w1, w2, r, p, q):
     g2 = (u @ u - alpha ** 2 - beta ** 2 - 2 * alpha * beta * c) / (cross @ cross)
     if g2 < -1e-10:
         return []
-    gammas = [0.0] if g2 <= 1e-14 else [np.sqrt(g2), -np.sqrt(g2)]
+    # Both roots even when they nearly coincide: at the wrist singularity's edge (q5 ~ 1e-7,
+    # g2 ~ 1e-14) the two wrist branches are distinct, and forward kinematics decides.
+    gamma = np.sqrt(max(g2, 0.0))
+    gammas = [gamma, -gamma]
     out = []
     for gamma in gammas:
         z = alpha * w1 + beta * w2 + gamma * cross
@@ -157,15 +166,11 @@ def closed_form_wrist(geo: SphericalWrist6R, T_des: np.ndarray) -> list[np.ndarr
 def solve_wrist(robot, geo, target, reference, respect_limits, tol):
     T_des = np.eye(4)
     T_des[:3, :3], T_des[:3, 3] = target.R, target.p
-    verified = []
-    for q in closed_form_wrist(geo, T_des):
-        e_p, e_o = residual_norms(robot, q, target)
-        # Round-off grows near the wrist singularity (q5 = 0); each branch is checked by FK.
-        if e_p <= max(tol, 1e-9) and e_o <= max(tol, 1e-9):
-            verified.append(q)
-    if not verified:
+    # Round-off grows near the wrist singularity (q5 → 0): each branch is polished and checked by FK.
+    solutions = verified(robot, closed_form_wrist(geo, T_des), target, tol)
+    if not solutions:
         return None
-    return apply_limits(robot, distinct(robot, verified, reference), target, respect_limits)
+    return apply_limits(robot, distinct(robot, solutions, reference, target), target, respect_limits)
 
 
 # ------------------------------------------------------------------- damped least squares (K8)

@@ -284,7 +284,7 @@ class _Setup:
         if self.fallback:
             info["dynamics_fallback"] = self.fallback
         info.update(meta or {})
-        annotate(plant, self.joint_limits, o_t, o_q, signals, labels, units, info, self.stop)
+        annotate(plant, self.joint_limits, o_t, o_q, signals, labels, units, info, self.stop, o_qd, o_tau)
         return SimulationResult(t=o_t, q=o_q, qd=o_qd, qdd=o_qdd,
                                 tau=o_tau, z=o_z, signals=signals, labels=labels,
                                 units=units, meta=info, status=status, diagnosis=diagnosis)

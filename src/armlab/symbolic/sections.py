@@ -14,6 +14,7 @@ import sympy as sp
 
 from armlab.model.robot import Robot
 from armlab.symbolic import energy, kinematics, lagrange, newton_euler, operational
+from armlab.symbolic.budget import Budget
 from armlab.symbolic.compact import compact_dynamics
 from armlab.symbolic.model import SymbolicRobot, symbolic_robot
 from armlab.symbolic.simplify import compact_matrix, count_ops
@@ -49,10 +50,15 @@ class Item(tuple):
 
 @dataclass
 class Section:
+    """One assignment's results.  ``complete`` is False when its ``budget`` [s] ran out (a
+    note then says what was skipped)."""
+
     key: str
     title: str
     items: list[Item] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)
+    complete: bool = True
+    budget: float | None = field(default=None, repr=False)
 
     def add(self, label: str, expr, tex: str) -> None:
         if isinstance(expr, sp.MatrixBase):
@@ -88,8 +94,7 @@ def _T(i, j) -> tuple[str, str]:
     return f"T{str(i).translate(_SUB)}^{j}", f"T_{{{i}}}^{{{j}}}"
 
 
-def _a1(sr: SymbolicRobot, frame: str) -> Section:
-    s = Section("A1", TITLES["A1"])
+def _a1(s: Section, sr: SymbolicRobot, frame: str) -> Section:
     K = kinematics
     for table_frame in ("0", "base"):
         table = K.dh_table(sr, table_frame)
@@ -113,13 +118,13 @@ def _a1(sr: SymbolicRobot, frame: str) -> Section:
             s.add(label, K.end_effector_pose(sr, f), tex.replace("{base}", r"{\mathrm{base}}"))
         else:
             s.notes.append(f"Σ_e = Σ_{sr.n}: the end-effector pose is T{str(sr.n).translate(_SUB)}^{f}.")
-    solutions = K.position_inverse_kinematics(sr, frame)
-    for k, branch in enumerate(solutions, start=1):
+    solutions = _inverse_kinematics(s, sr, frame)
+    for k, branch in enumerate(solutions or [], start=1):
         lhs = sp.Matrix(list(branch))
         s.add(f"IK branch {k} (p_e = (p_x, p_y, p_z) in Σ_{frame})",
               sp.Eq(lhs, sp.Matrix(list(branch.values())), evaluate=False),
               rf"\text{{IK, branch {k}}}")
-    if sr.n <= 3 and not solutions:
+    if sr.n <= 3 and solutions == []:
         s.notes.append("No closed-form inverse kinematics found for the position equations.")
     where = r"\mathrm{base}" if frame == "base" else "0"
     s.add(f"J (geometric, Σ_{frame})", K.geometric_jacobian(sr, frame), rf"J^{{{where}}}")
@@ -133,6 +138,27 @@ def _a1(sr: SymbolicRobot, frame: str) -> Section:
     s.add(f"J_A (analytical, ZYZ, Σ_{frame})", J_A, rf"J_A^{{{where}}}")
     return s
 
+
+def _inverse_kinematics(s: Section, sr: SymbolicRobot, frame: str) -> list[dict] | None:
+    """The closed-form position IK within :data:`IK_SHARE` of the section's budget (SymPy's
+    polynomial solver is the step whose cost explodes first); None, with a note, past it."""
+    seconds = None if s.budget is None else max(IK_SHARE * s.budget, 0.1)
+    with Budget(seconds, "closed-form inverse kinematics") as budget:
+        return kinematics.position_inverse_kinematics(sr, frame)
+    s.notes.append(f"Closed-form inverse kinematics skipped: SymPy's polynomial solver did not finish "
+                   f"within {seconds:.3g} s (its share of the A1 budget); use armlab's numeric IK.")
+    assert budget.exceeded
+    return None
+
+
+IK_SHARE = 0.4
+"""Share of A1's budget that the closed-form inverse kinematics may use, so that the Jacobians
+after it are still derived when the solver gives up."""
+
+DEFAULT_BUDGET = 60.0
+"""Seconds of wall-clock time each assignment of :func:`derive` may take by default: the
+bundled robots need at most a few (the PRP about 2 s per assignment, the Puma560 about 6), an
+arm with non-round parameters can take hours."""
 
 LARGE = 3
 """Robots with more joints than this take the recursive route (:mod:`compact`) for B, C, g
@@ -148,8 +174,7 @@ def _compact(sr: SymbolicRobot):
     return compact_dynamics(sr)
 
 
-def _a2(sr: SymbolicRobot) -> Section:
-    s = Section("A2", TITLES["A2"])
+def _a2(s: Section, sr: SymbolicRobot) -> Section:
     E = energy
     lhs, rhs, difference = E.steiner_identity()
     s.add("I_C + m Sᵀ(r) S(r)", lhs, r"I_C + m S^T(r) S(r)")
@@ -191,8 +216,7 @@ def _a2(sr: SymbolicRobot) -> Section:
     return s
 
 
-def _a3(sr: SymbolicRobot) -> Section:
-    s = Section("A3", TITLES["A3"])
+def _a3(s: Section, sr: SymbolicRobot) -> Section:
     L = lagrange
     if _large(sr):
         result = _compact(sr)
@@ -215,8 +239,7 @@ def _a3(sr: SymbolicRobot) -> Section:
     return s
 
 
-def _a4(sr: SymbolicRobot) -> Section:
-    s = Section("A4", TITLES["A4"])
+def _a4(s: Section, sr: SymbolicRobot) -> Section:
     N = newton_euler
     for i, A in enumerate(kinematics.relative_transforms(sr), start=1):
         label, tex = _T(i, i - 1)
@@ -257,8 +280,7 @@ def _a4(sr: SymbolicRobot) -> Section:
     return s
 
 
-def _a5(sr: SymbolicRobot, frame: str) -> Section:
-    s = Section("A5", TITLES["A5"])
+def _a5(s: Section, sr: SymbolicRobot, frame: str) -> Section:
     T_A, _ = operational.euler_rate_matrix()
     s.add("T_A(φ) (ZYZ)", T_A, r"T_A(\phi)")
     if _large(sr):
@@ -287,20 +309,36 @@ def _a5(sr: SymbolicRobot, frame: str) -> Section:
 
 
 def derive(robot: Robot | SymbolicRobot, *, frame: str = "0", numeric: bool = False,
-           only: str | None = None) -> list[Section]:
+           only: str | None = None, budget: float | None = DEFAULT_BUDGET) -> list[Section]:
     """The A1–A5 derivations of ``robot`` (or just ``only``) as :class:`Section` objects.
 
     ``frame`` ("0" or "base") is the frame of the kinematic results of A1 and of the task
     coordinates of A5; dynamics are always written with g_0 and velocities in Σ_0.
     ``numeric`` substitutes the parameter values.  Results are cached per symbolic robot, so
     deriving A3 after A2 reuses B.
+
+    ``budget`` is the wall-clock time [s] each assignment may take (None: no limit).  An
+    assignment stopped by it keeps the results derived so far, is marked ``complete=False``
+    and says in one note what was skipped and why; the next assignment starts afresh.
     """
     if frame not in kinematics.FRAMES:
         raise ValueError(f"frame must be 'base' or '0', got {frame!r}")
     if only is not None and only not in ASSIGNMENTS:
         raise ValueError(f"unknown assignment {only!r} (use {', '.join(ASSIGNMENTS)})")
+    if budget is not None and not budget > 0:
+        raise ValueError(f"budget must be a positive number of seconds or None, got {budget!r}")
     sr = robot if isinstance(robot, SymbolicRobot) else symbolic_robot(robot, numeric=numeric)
-    builders = {"A1": lambda: _a1(sr, frame), "A2": lambda: _a2(sr), "A3": lambda: _a3(sr),
-                "A4": lambda: _a4(sr), "A5": lambda: _a5(sr, frame)}
-    keys = [only] if only else list(ASSIGNMENTS)
-    return [builders[k]() for k in keys]
+    builders = {"A1": lambda s: _a1(s, sr, frame), "A2": lambda s: _a2(s, sr), "A3": lambda s: _a3(s, sr),
+                "A4": lambda s: _a4(s, sr), "A5": lambda s: _a5(s, sr, frame)}
+    sections = []
+    for key in [only] if only else list(ASSIGNMENTS):
+        s = Section(key, TITLES[key], budget=budget)
+        with Budget(budget, key) as spent:
+            builders[key](s)
+        if spent.exceeded:
+            s.complete = False
+            s.notes.append(f"{key} stopped after its budget of {budget:g} s: {len(s.items)} results derived, "
+                           f"the rest skipped (SymPy's expressions for this arm's parameters grow too "
+                           f"large); every numeric result of the report is computed without them.")
+        sections.append(s)
+    return sections

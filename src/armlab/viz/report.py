@@ -129,10 +129,16 @@ def _derivation_cache(robot: Robot) -> Path:
     return cache_dir() / "report" / f"derivations_{digest.hexdigest()[:24]}.json"
 
 
-def _cached_symbolic_sections(robot: Robot, progress: tqdm) -> dict[int, str]:
+DERIVATION_BUDGET = {False: 120.0, True: 30.0}
+"""Seconds each of A1–A5 may take in a full (False) and in a ``--quick`` (True) report; an
+assignment past it keeps what it derived and says what it skipped (``symbolic.derive``)."""
+
+
+def _cached_symbolic_sections(robot: Robot, progress: tqdm, budget: float | None = None) -> dict[int, str]:
     """:func:`_symbolic_sections`, kept on disk (ARMLAB_CACHE_DIR) after the first report:
     SymPy spends tens of seconds on them, the rest of a ``--quick`` report a few.  A cache
-    that cannot be read or written is derived around, never trusted half-written."""
+    that cannot be read or written is derived around, never trusted half-written; a
+    derivation cut short by its ``budget`` is not kept (a later, idle run may finish it)."""
     import json
 
     path = _derivation_cache(robot)
@@ -144,7 +150,9 @@ def _cached_symbolic_sections(robot: Robot, progress: tqdm) -> dict[int, str]:
             return {int(k): v for k, v in data.items()}
     except (OSError, ValueError):
         pass
-    sections = _symbolic_sections(robot, progress)
+    sections, complete = _symbolic_sections(robot, progress, budget)
+    if not complete:
+        return sections
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         write_text(path, json.dumps({str(k): v for k, v in sections.items()}))  # whole or not at all
@@ -153,8 +161,10 @@ def _cached_symbolic_sections(robot: Robot, progress: tqdm) -> dict[int, str]:
     return sections
 
 
-def _symbolic_sections(robot: Robot, progress: tqdm) -> dict[int, str]:
-    """HTML of the A1–A5 derivations by assignment number.
+def _symbolic_sections(robot: Robot, progress: tqdm,
+                       budget: float | None = None) -> tuple[dict[int, str], bool]:
+    """HTML of the A1–A5 derivations by assignment number, and whether every one finished
+    within ``budget`` seconds (``armlab.symbolic.derive``).
 
     A1 is derived in both Σ_0 and Σ_base (as the seed does), A2–A5 in Σ_0; one symbolic robot
     serves all five, so later sections reuse B, C, g.
@@ -166,16 +176,18 @@ def _symbolic_sections(robot: Robot, progress: tqdm) -> dict[int, str]:
 
     sr = symbolic_robot(robot)
     out: dict[int, str] = {}
+    complete = True
     for key in DERIVED:
         progress.set_postfix_str(f"deriving {key}")
-        (section,) = derive(sr, frame="base" if key == "A1" else "0", only=key)
+        (section,) = derive(sr, frame="base" if key == "A1" else "0", only=key, budget=budget)
+        complete &= section.complete
         blocks = [f"<h3>Derivation: {html.escape(section.title)}</h3>"]
         for item in section.items:
             blocks.append(html.math_block(item.label, to_mathml(item.expr)))
         blocks += [f'<p class="note">{html.escape(note)}</p>' for note in section.notes]
         out[int(key[1:])] = "".join(blocks)
         progress.update()
-    return out
+    return out, complete
 
 
 # ----------------------------------------------------------------------------- A6–A15
@@ -332,7 +344,7 @@ def build_report(robot: str | Robot = "prp", out_dir: str | Path = "report", *, 
         drawn = _drawings(robot)
         progress.update()
         try:
-            derived = _cached_symbolic_sections(robot, progress)
+            derived = _cached_symbolic_sections(robot, progress, DERIVATION_BUDGET[quick])
         except Exception as error:  # a robot SymPy cannot derive still gets its experiments
             derived = {1: f'<p class="diverged">Symbolic derivation failed: {html.escape(error)}</p>'}
         return drawn, derived
