@@ -11,6 +11,7 @@ Each class is also the builtin a Python programmer would catch for the same faul
     │   │   ├── ScenarioFileError          scenario TOML files
     │   │   └── SweepFileError             sweep TOML files
     │   ├── SweepStoreError                a sweep's output folder (``folder: reason``)
+    │   ├── SchedulerAddressError          a Dask scheduler address that cannot be used
     │   ├── FieldPathError                 a sweep's field path that does not fit its scenario
     │   ├── ResultFileError                result files (``file: reason``)
     │   ├── SpecError                      parameters that cannot define the thing asked for
@@ -91,6 +92,18 @@ class FieldPathError(InputError):
 
 class SweepStoreError(InputError):
     """A sweep's output folder that cannot be written or resumed; the message names it."""
+
+
+class SchedulerAddressError(InputError):
+    """A Dask scheduler address that is malformed, of an unsupported kind or unreachable;
+    ``reason`` says which (the message is ``scheduler: reason``)."""
+
+    def __init__(self, reason: str):
+        self.reason = one_line(reason)
+        super().__init__(f"scheduler: {self.reason}")
+
+    def __reduce__(self):
+        return type(self), (self.reason,)
 
 
 class ResultFileError(InputError):

@@ -29,11 +29,13 @@ _KINDS = ((stat.S_ISDIR, "a directory"), (stat.S_ISFIFO, "a FIFO (named pipe)"),
           (stat.S_ISSOCK, "a socket"))
 
 
-def _kind(mode: int) -> str:
+def file_kind(mode: int) -> str:
+    """What a path of ``st_mode`` ``mode`` is, when it is not a regular file ("a FIFO (named pipe)")."""
     return next((name for test, name in _KINDS if test(mode)), "not a regular file")
 
 
-def _size(count: int) -> str:
+def size_text(count: int) -> str:
+    """A byte count as people read it ("3.0 MiB", "512 bytes")."""
     return f"{count / (1024 * 1024):.1f} MiB" if count >= 1024 * 1024 else f"{count} bytes"
 
 
@@ -59,13 +61,13 @@ def read_input_bytes(path, error: type[FileFieldError], limit: int) -> bytes:
     except ValueError:  # a NUL character in the path
         refuse("cannot be read (the path contains a NUL character)")
     if fd is None:
-        refuse(f"is {_kind(mode)}, not a regular file")
+        refuse(f"is {file_kind(mode)}, not a regular file")
     try:
         info = os.fstat(fd)
         if not stat.S_ISREG(info.st_mode):
-            refuse(f"is {_kind(info.st_mode)}, not a regular file")
+            refuse(f"is {file_kind(info.st_mode)}, not a regular file")
         if info.st_size > limit:
-            refuse(f"is {_size(info.st_size)}, more than the {_size(limit)} read at most")
+            refuse(f"is {size_text(info.st_size)}, more than the {size_text(limit)} read at most")
         with os.fdopen(os.dup(fd), "rb") as stream:
             data = stream.read(limit + 1)
     except OSError as problem:
@@ -73,7 +75,7 @@ def read_input_bytes(path, error: type[FileFieldError], limit: int) -> bytes:
     finally:
         os.close(fd)
     if len(data) > limit:
-        refuse(f"is more than the {_size(limit)} read at most")
+        refuse(f"is more than the {size_text(limit)} read at most")
     return data
 
 

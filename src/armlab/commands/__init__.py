@@ -18,6 +18,13 @@ def add_tip_argument(parser) -> None:
                              "whose tree branches; moving joints off the chain are locked")
 
 
+def add_allow_outside_argument(parser) -> None:
+    """``--allow-outside``: a robot file may name files outside its own folder."""
+    parser.add_argument("--allow-outside", action="store_true",
+                        help="let a URDF/MJCF robot file read files outside its own folder (included "
+                             "MJCF files, meshes, textures; package://, file://, absolute paths, ..)")
+
+
 def format_table(headers: list[str], rows: list[list[str]], indent: str = "") -> str:
     """Left-aligned plain-text table with a rule under the header: tabulate's "simple" format,
     every cell as given (no number parsing or realignment), no trailing blanks."""

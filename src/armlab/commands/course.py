@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from armlab.commands import add_tip_argument
+from armlab.commands import add_allow_outside_argument, add_tip_argument
 
 
 def register(subparsers) -> None:
@@ -15,6 +15,7 @@ def register(subparsers) -> None:
     parser.add_argument("robot", metavar="ROBOT",
                         help="bundled or zoo robot name, or robot file (.toml/.urdf/.xml)")
     add_tip_argument(parser)
+    add_allow_outside_argument(parser)
     parser.add_argument("--out", default="course", help="output folder (default: course)")
     parser.set_defaults(func=run)
 
@@ -24,7 +25,7 @@ def run(args) -> int:
     from armlab.course import write_course
     from armlab.robots import load_robot, robot_reference
 
-    robot = load_robot(args.robot, tip=args.tip)
+    robot = load_robot(args.robot, tip=args.tip, allow_outside=args.allow_outside)
     reference, tip = robot_reference(robot)
     paths, skipped = write_course(robot, reference, args.out, tip=tip)
     for path in paths:

@@ -11,6 +11,7 @@ import numpy as np
 
 from armlab.commands import (
     CommandError,
+    add_allow_outside_argument,
     add_tip_argument,
     format_matrix,
     format_number,
@@ -30,6 +31,7 @@ def register(subparsers) -> None:
                     "from Σ_0, and its forward kinematics T_n^0 and T_n^base at a pose.")
     parser.add_argument("--robot", default="prp", help="bundled robot or robot file (default: prp)")
     add_tip_argument(parser)
+    add_allow_outside_argument(parser)
     parser.add_argument("--q", help="joint values, e.g. '0.1, pi/3, 0.1' (default: the seed's "
                                     "pose for the PRP, zeros otherwise)")
     parser.add_argument("--report", action="store_true",
@@ -45,7 +47,7 @@ def run(args) -> int:
     from armlab.kinematics import forward_kinematics
     from armlab.robots import load_robot
 
-    robot = load_robot(args.robot, tip=args.tip)
+    robot = load_robot(args.robot, tip=args.tip, allow_outside=args.allow_outside)
     if args.q is not None:
         q = parse_vector(args.q, robot.n, "--q")
     elif robot.n == 3 and [j.kind for j in robot.joints] == ["prismatic", "revolute", "prismatic"]:

@@ -5,7 +5,7 @@ from __future__ import annotations
 import sys
 import time
 
-from armlab.commands import add_tip_argument
+from armlab.commands import add_allow_outside_argument, add_tip_argument
 
 MAX_JOINTS = 12
 """Longest chain ``armlab derive`` takes without ``--no-limit``: the derivation costs about
@@ -28,6 +28,7 @@ def register(subparsers) -> None:
                     "A4 Newton–Euler and its identity with Lagrange, A5 operational space.")
     parser.add_argument("robot", metavar="ROBOT", help="bundled robot name or robot file (.toml/.urdf)")
     add_tip_argument(parser)
+    add_allow_outside_argument(parser)
     parser.add_argument("--frame", choices=("0", "base"), default="0",
                         help="frame of the kinematic results and task coordinates (default: 0)")
     parser.add_argument("--format", dest="fmt", choices=("text", "latex", "markdown"), default="text",
@@ -62,7 +63,7 @@ def run(args) -> int:
     from armlab.errors import CommandError
     from armlab.robots import load_robot
 
-    robot = load_robot(args.robot, tip=args.tip)
+    robot = load_robot(args.robot, tip=args.tip, allow_outside=args.allow_outside)
     if robot.n > MAX_JOINTS and not args.no_limit:
         minutes = estimate_seconds(robot.n) / 60
         raise CommandError(f"{robot.name} has {robot.n} joints: deriving it would take about "

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import os
 
-from armlab.commands import add_tip_argument
+from armlab.commands import add_allow_outside_argument, add_tip_argument
 
 
 def register(subparsers) -> None:
@@ -18,6 +18,7 @@ def register(subparsers) -> None:
         formatter_class=argparse.ArgumentDefaultsHelpFormatter)
     parser.add_argument("--robot", default="prp", help="bundled robot name or robot file")
     add_tip_argument(parser)
+    add_allow_outside_argument(parser)
     parser.add_argument("--out", default="report", help="output directory")
     parser.add_argument("--quick", action="store_true",
                         help="a fast preview: the first scenario of each assignment, runs shortened, "
@@ -44,7 +45,7 @@ def run(args) -> int:
     from armlab.robots import load_robot
     from armlab.viz.report import build_report
 
-    robot = load_robot(args.robot, tip=args.tip)
+    robot = load_robot(args.robot, tip=args.tip, allow_outside=args.allow_outside)
     # --quiet: ``armlab.cli`` silences this process's warnings; the full report's workers are
     # spawned interpreters, which take their filter from the environment.
     saved = os.environ.get("PYTHONWARNINGS")

@@ -8,7 +8,13 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from armlab.commands import add_tip_argument, format_matrix, format_number, format_table
+from armlab.commands import (
+    add_allow_outside_argument,
+    add_tip_argument,
+    format_matrix,
+    format_number,
+    format_table,
+)
 
 if TYPE_CHECKING:
     from armlab.model.robot import Robot
@@ -25,6 +31,7 @@ def register(subparsers) -> None:
                     "friction.")
     parser.add_argument("name", nargs="?", metavar="NAME", help="bundled robot name or robot file")
     add_tip_argument(parser)
+    add_allow_outside_argument(parser)
     parser.add_argument("--urdf", metavar="PATH", help="also write the robot as URDF to PATH")
     parser.add_argument("--zoo", action="store_true",
                         help="list the arms of installed description packages (example-robot-data), "
@@ -41,7 +48,7 @@ def run(args) -> int:
     if args.name is None:
         print(robots_table())
         return 0
-    robot = load_robot(args.name, tip=args.tip)
+    robot = load_robot(args.name, tip=args.tip, allow_outside=args.allow_outside)
     print(describe(robot))
     if args.urdf:
         from armlab.model.urdf_io import save_urdf

@@ -108,9 +108,7 @@ def run_scenario(name_or_path, *, out_dir=None, formats=("npz", "csv"), plot=Fal
         result = scenario.run(t_final=t_final, method=method)
     except (SimulationDiverged, SimulationInterrupted) as error:
         result = error.result
-    if progress is not None:
-        print(f"  done in {time.perf_counter() - start:.2f} s wall time"
-              f"{' — ' + result.diagnosis if result.status != 'ok' else ''}", file=progress, flush=True)
+    seconds = time.perf_counter() - start
     written = []
     if out_dir is not None:
         try:
@@ -127,4 +125,8 @@ def run_scenario(name_or_path, *, out_dir=None, formats=("npz", "csv"), plot=Fal
             from armlab.viz.diagram_drawing import write_diagram
 
             written.append(write_diagram(scenario, out_dir / f"{scenario.name}_loop.png"))
+    if progress is not None:
+        # Said once the data is safely written (a full disk fails the write, not this line).
+        print(f"  done in {seconds:.2f} s wall time"
+              f"{' — ' + result.diagnosis if result.status != 'ok' else ''}", file=progress, flush=True)
     return result, written

@@ -32,7 +32,7 @@ def register(subparsers) -> None:
 
 
 def run(args) -> int:
-    from armlab.errors import CommandError
+    from armlab.errors import CommandError, SchedulerAddressError
     from armlab.sweep import bundled_sweep_names, load_sweep, sweep
 
     if args.list:
@@ -48,9 +48,12 @@ def run(args) -> int:
 
         check_plots(spec)  # a bad [[plot]] table is reported before the runs, not after
     out = args.out or f"sweeps/{spec.name}"
-    outcome = sweep(spec, out, threads=args.threads, processes=args.processes, workers=args.workers,
-                    scheduler=args.scheduler,
-                    overwrite=args.overwrite, progress=not args.quiet, log=sys.stderr)
+    try:
+        outcome = sweep(spec, out, threads=args.threads, processes=args.processes, workers=args.workers,
+                        scheduler=args.scheduler, overwrite=args.overwrite, progress=not args.quiet,
+                        log=sys.stderr)
+    except SchedulerAddressError as error:
+        raise CommandError(f"--scheduler: {error.reason}") from None
     counts = ", ".join(f"{n} {status}" for status, n in sorted(outcome.counts.items()))
     print(f"{spec.name}: {outcome.n_runs} runs ({counts}) in {outcome.seconds:.1f} s on {outcome.executor}")
     print(f"wrote {out}/runs (Parquet, one row per run)")

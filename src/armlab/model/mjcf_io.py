@@ -21,7 +21,8 @@ Rot(a_k, −q0_k) · Tr(−p_k) follows it.  So armlab's q is MuJoCo's ``qpos``,
 
 Read as: ``body_mass``, ``body_ipos``/``body_iquat``/``body_inertia`` → inertials;
 ``jnt_range`` (when ``jnt_limited``) → limits; ``dof_damping`` → viscous friction F_v;
-``dof_frictionloss`` → Coulomb friction F_s; ``opt.gravity`` (in the world frame) → g; the
+``dof_frictionloss`` → Coulomb friction F_s; ``opt.gravity`` (in the world frame) → g, or
+g = 0 when ``<flag gravity="disable"/>`` switches it off (``opt.disableflags``); the
 geoms MuJoCo's viewer shows by default (meshes as compiled, and primitives) → ``visuals``, for
 drawing only.
 Not modelled, and named in ``robot.notes`` when present: ``dof_armature`` (MuJoCo adds it to
@@ -34,6 +35,7 @@ otherwise.
 
 from __future__ import annotations
 
+import threading
 from dataclasses import replace
 from pathlib import Path
 from types import SimpleNamespace
@@ -49,18 +51,41 @@ def _fail(path, field, reason):
     raise RobotFileError(path, field, reason)
 
 
-def _compile(path: Path):
+_WARNINGS = threading.Lock()  # MuJoCo's warning handler is one global of the library
+
+
+def _compile(path: Path, allow_outside: bool = False):
+    """(mujoco, MjModel) of the MJCF file ``path``, its files checked first
+    (:func:`~armlab.model.mjcf_files.check_mjcf_files`).  What MuJoCo warns while compiling
+    (its default handler prints ``WARNING: …`` and appends to ``MUJOCO_LOG.TXT`` in the working
+    folder) is captured instead: a warning of a NaN in the file refuses it (every value of a
+    robot file is finite), the words of the others join a compile error's one line or
+    ``robot.notes``."""
     try:
         import mujoco
     except ImportError:
         _fail(path, "file", "MJCF files are read by the mujoco package, which is not installed "
               "(pip install 'armlab[mjcf]')")
-    if not path.is_file():
-        _fail(path, "file", "cannot be read (no such file)")
-    try:
-        return mujoco, mujoco.MjModel.from_xml_path(str(path))
-    except Exception as error:  # mujoco raises ValueError with the compiler's message
-        _fail(path, "mjcf", " ".join(str(error).split()) or type(error).__name__)
+    from armlab.model.mjcf_files import check_mjcf_files
+
+    check_mjcf_files(path, allow_outside=allow_outside)
+    warned: list[str] = []
+    with _WARNINGS:
+        previous = mujoco.get_mju_user_warning()
+        mujoco.set_mju_user_warning(lambda message: warned.append(" ".join(str(message).split())))
+        try:
+            m = mujoco.MjModel.from_xml_path(str(path))
+            error = None
+        except Exception as problem:  # mujoco raises ValueError with the compiler's message
+            m, error = None, " ".join(str(problem).split()) or type(problem).__name__
+        finally:
+            mujoco.set_mju_user_warning(previous)
+    said = "; ".join(dict.fromkeys(warned))
+    if error is not None:
+        _fail(path, "mjcf", error + (f" (MuJoCo warned: {said})" if said else ""))
+    if any("nan" in message.lower() for message in warned):
+        _fail(path, "mjcf", f"MuJoCo warned: {said} (every value must be a finite number)")
+    return mujoco, m, [f"MuJoCo warned: {message}" for message in dict.fromkeys(warned)]
 
 
 def _rotation(axis, angle) -> np.ndarray:
@@ -185,28 +210,36 @@ def mjcf_tree(path: Path, mujoco, m):
                                   mimic=None, dynamics=None))
     # MuJoCo's name buffer starts with the model's name.
     model_name = bytes(m.names).split(b"\0")[0].decode("utf-8", "replace")
-    return model_name, links, joints, np.array(m.opt.gravity, dtype=float), qpos0, frame_names
+    gravity = np.array(m.opt.gravity, dtype=float)
+    if int(m.opt.disableflags) & int(mujoco.mjtDisableBit.mjDSBL_GRAVITY):
+        gravity = np.zeros(3)   # <flag gravity="disable"/>: MuJoCo's dynamics has no gravity
+    return model_name, links, joints, gravity, qpos0, frame_names
 
 
 def load_mjcf(path: str | Path, *, tip: str | None = None, gravity=None, name: str | None = None,
-              lock: dict | None = None) -> Robot:
+              lock: dict | None = None, allow_outside: bool = False) -> Robot:
     """Load the serial chain world → ``tip`` (a body name) of an MJCF file as a :class:`Robot`.
 
     ``tip``, ``lock``, ``gravity`` and ``name`` as for :func:`armlab.load_urdf`; off-chain
-    joints are locked at ``qpos0`` by default.  armlab's q is MuJoCo's ``qpos``; Σ_base is
-    MuJoCo's world frame; g is ``<option gravity>`` unless ``gravity`` (g_0 in Σ_0) is given.
+    joints are locked at ``qpos0`` by default.  Without ``tip`` the chain ends at the body
+    whose path holds the most joints, when one body does (the others are then locked).
+    armlab's q is MuJoCo's ``qpos``; Σ_base is MuJoCo's world frame; g is ``<option gravity>``
+    (zero under ``<flag gravity="disable"/>``, as MuJoCo's dynamics has it) unless ``gravity``
+    (g_0 in Σ_0) is given.  Included files, meshes and textures must lie under the file's own
+    folder unless ``allow_outside`` (:mod:`armlab.model.references`).
     """
     from armlab.model.urdf_io import robot_from_tree
 
     path = Path(path)
-    mujoco, m = _compile(path)
+    mujoco, m, warned = _compile(path, allow_outside)
     model_name, links, joints, g_world, qpos0, frame_names = mjcf_tree(path, mujoco, m)
     robot = robot_from_tree(path, model_name, links, joints, tip=tip, gravity=gravity, name=name,
                             lock=lock, file_kind="MJCF", root_gravity=g_world, default_lock=qpos0,
-                            lock_rule="at qpos0 unless given")
+                            lock_rule="at qpos0 unless given", allow_outside=allow_outside,
+                            longest=True)
     # Σ_i is the body frame (the intermediate frame of a joint that is not its body's last).
     renamed = tuple(replace(link, name=frame_names[link.name]) for link in robot.links)
-    notes = list(robot.notes) + _ignored(path, mujoco, m, robot)
+    notes = list(robot.notes) + _ignored(path, mujoco, m, robot) + warned
     return robot.replace(links=renamed, notes=tuple(notes))
 
 

@@ -44,6 +44,7 @@ import numpy as np
 
 from armlab.inputs import URDF_LIMIT, read_input_bytes
 from armlab.model.inertia import inertia_problem, steiner
+from armlab.model.references import OUTSIDE_HINT
 from armlab.model.robot import Friction, Inertial, Joint, Link, Robot, nonfinite_part
 from armlab.model.toml_io import RobotFileError, axis_alignment
 from armlab.model.urdf_check import check_urdf_document
@@ -240,13 +241,15 @@ def _check_finite(path, robot: Robot) -> None:
                                            "inertials are not finite")
 
 
-def _chain(path, joints: dict, children: dict, root: str, tip: str | None) -> list:
+def _chain(path, joints: dict, children: dict, root: str, tip: str | None,
+           longest: bool = False) -> list:
     """URDF joints on the path root → tip, choosing the tip when it is not given.
 
     Without ``tip`` the chain ends at the only leaf link whose path holds every moving joint;
-    when several leaves qualify, or the moving joints lie on several branches, the error lists
-    the candidate tips (the leaves with the most moving joints on their path) and the link
-    where those branches split.
+    with ``longest``, else at the only leaf with the most moving joints on its path (the rest
+    are then locked).  When several leaves qualify, or (without ``longest``) the moving joints
+    lie on several branches, the error lists the candidate tips (the leaves with the most
+    moving joints on their path) and the link where those branches split.
     """
     parent_joint = {j.child: j for j in joints.values()}
 
@@ -275,6 +278,8 @@ def _chain(path, joints: dict, children: dict, root: str, tip: str | None) -> li
               "pass tip= to choose one")
     most = max(count.values())
     best = sorted(leaf for leaf in leaves if count[leaf] == most)
+    if longest and len(best) == 1:
+        return path_to(best[0])
     # The link where the best branches split: the last link common to all their paths.
     paths = [[root] + [j.child for j in path_to(leaf)] for leaf in best]
     split = root
@@ -361,7 +366,7 @@ def _lock_values(path, joints: dict, on_chain: set, lock: dict, default: dict) -
 
 @np.errstate(all="ignore")  # overflow is caught by the checks, not reported on the way
 def load_urdf(path: str | Path, *, tip: str | None = None, gravity=None,
-              name: str | None = None, lock: dict | None = None) -> Robot:
+              name: str | None = None, lock: dict | None = None, allow_outside: bool = False) -> Robot:
     """Load the serial chain root → ``tip`` of a URDF file as a :class:`Robot`.
 
     Parameters
@@ -380,6 +385,10 @@ def load_urdf(path: str | Path, *, tip: str | None = None, gravity=None,
         The robot's name; the URDF's ``<robot name>`` by default.
     lock : dict, optional
         Joint name → value [rad | m] at which a moving joint off the chain is locked.
+    allow_outside : bool
+        Read mesh files that lie outside the URDF's own folder (``package://``, ``file://``,
+        absolute paths, ``..``).  By default such a mesh is not read and ``robot.notes`` names
+        it (:mod:`armlab.model.references`); meshes are for drawing only.
 
     Returns
     -------
@@ -400,17 +409,21 @@ def load_urdf(path: str | Path, *, tip: str | None = None, gravity=None,
     path = Path(path)
     urdf = _parse(path)
     return robot_from_tree(path, urdf.name, urdf.links, urdf.joints, tip=tip, gravity=gravity,
-                           name=name, lock=lock, file_kind="URDF")
+                           name=name, lock=lock, file_kind="URDF", allow_outside=allow_outside)
 
 
 def robot_from_tree(path, tree_name, tree_links, tree_joints, *, tip=None, gravity=None, name=None,
                     lock=None, file_kind="URDF", root_gravity=STANDARD_GRAVITY,
-                    default_lock=None, lock_rule="at 0 within limits unless given or mimicking") -> Robot:
+                    default_lock=None, lock_rule="at 0 within limits unless given or mimicking",
+                    allow_outside: bool = False, longest: bool = False) -> Robot:
     """The serial chain root → ``tip`` of a tree of links and joints in URDF form (the records
     of ``yourdfpy``, or any objects with their attributes), as described by :func:`load_urdf`.
     ``path`` names the file in errors; without ``gravity`` (g_0 in Σ_0), g is ``root_gravity``
     in the root link's frame.  ``default_lock`` (joint → value) replaces 0 as the value at which
-    joints off the chain are locked; ``lock_rule`` says how, in the note."""
+    joints off the chain are locked; ``lock_rule`` says how, in the note.  Mesh files outside
+    the file's folder are left out (and noted) unless ``allow_outside``.  ``longest``: without
+    ``tip``, a tree whose moving joints lie on several branches ends at the one leaf with the
+    most of them when there is one (MJCF: side branches have a pose of their own, ``qpos0``)."""
     links = {link.name: link for link in tree_links}
     joints = {}
     children: dict[str, list] = {}
@@ -432,7 +445,7 @@ def robot_from_tree(path, tree_name, tree_links, tree_joints, *, tip=None, gravi
     if len(roots) != 1:
         _fail(path, "link", f"expected one root link, found {len(roots)} ({', '.join(roots)})")
     root = roots[0]
-    chain = _chain(path, joints, children, root, tip)
+    chain = _chain(path, joints, children, root, tip, longest)
     moving = [j for j in chain if j.type in _MOVING]
     if not moving:
         _fail(path, "joint", f"no revolute, continuous or prismatic joint between {root!r} and the tip")
@@ -546,7 +559,11 @@ def robot_from_tree(path, tree_name, tree_links, tree_joints, *, tip=None, gravi
                      f"into the links carrying them: {values}")
     if unset_limits:
         notes.append(f"limits lower = upper read as no limit: {', '.join(unset_limits)}")
-    visuals, missing, unsized = place_visuals(path, links, body_of, pose_in_body)
+    visuals, missing, unsized, refused = place_visuals(path, links, body_of, pose_in_body,
+                                                       allow_outside=allow_outside)
+    if refused:
+        notes.append(f"mesh files not read (those parts are drawn as their inertia shapes; "
+                     f"{OUTSIDE_HINT} when outside): {_listing(refused, 4)}")
     if missing:
         notes.append(f"mesh files not found (those parts are drawn as their inertia shapes): "
                      f"{_listing(missing, 4)}")

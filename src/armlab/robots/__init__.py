@@ -20,7 +20,7 @@ def bundled_robot_path(name: str) -> Path:
 
 
 def load_robot(name_or_path: str | Path, *, tip: str | None = None,
-               lock: dict | None = None) -> Robot:
+               lock: dict | None = None, allow_outside: bool = False) -> Robot:
     """A robot by name or file.
 
     ``name_or_path``: a bundled robot (``"prp"``, see :func:`bundled_robot_names`), an arm of an
@@ -29,6 +29,9 @@ def load_robot(name_or_path: str | Path, *, tip: str | None = None,
     ``tip``: the link (URDF) or body (MJCF) carrying the end effector, for files whose tree
     branches; a zoo robot has its own, which ``tip`` replaces.  ``lock``: joint name → value at
     which a moving joint off the chain is locked (default 0 within its limits).
+    ``allow_outside``: a URDF/MJCF file may name files (includes, meshes, textures) outside its
+    own folder (:mod:`armlab.model.references`); a zoo arm's files always may (they come from
+    an installed package, whose meshes sit beside its URDF folder).
     """
     text = str(name_or_path)
     if text in bundled_robot_names():
@@ -39,7 +42,8 @@ def load_robot(name_or_path: str | Path, *, tip: str | None = None,
     if text in zoo.ZOO:
         from armlab.model.urdf_io import load_urdf
 
-        robot = load_urdf(zoo.zoo_path(text), tip=tip or zoo.ZOO[text].tip, lock=lock, name=text)
+        robot = load_urdf(zoo.zoo_path(text), tip=tip or zoo.ZOO[text].tip, lock=lock, name=text,
+                          allow_outside=True)
         return robot.replace(description=zoo.ZOO[text].description,
                              notes=(f"from {zoo.provenance(text)}", *robot.notes))
     path = Path(text)
@@ -47,11 +51,11 @@ def load_robot(name_or_path: str | Path, *, tip: str | None = None,
     if suffix == ".urdf":
         from armlab.model.urdf_io import load_urdf
 
-        return load_urdf(path, tip=tip, lock=lock)
+        return load_urdf(path, tip=tip, lock=lock, allow_outside=allow_outside)
     if suffix in (".xml", ".mjcf"):
         from armlab.model.mjcf_io import load_mjcf
 
-        return load_mjcf(path, tip=tip, lock=lock)
+        return load_mjcf(path, tip=tip, lock=lock, allow_outside=allow_outside)
     if suffix == ".toml":
         _no_tree_options(text, tip, lock)
         return load_robot_toml(path)

@@ -10,7 +10,10 @@ Flat tables (``to_dataframe``, CSV, Parquet) name a column ``"<group>.<label>"``
 ``q.theta2``, ``tau.d1``, ``q_err.d3``; ``t`` is the first column.
 
 A run that diverged is still a result: ``status == "diverged"`` and ``diagnosis`` says what
-diverged and when; the arrays stop at the last finite step.  A run stopped by Ctrl-C
+diverged and when; the arrays stop at the last finite step.  A run that logged a value that is
+not finite (NaN, ±inf: a state the loop's own checks let through, an acceleration of a chain
+whose mass matrix overflowed) has diverged, whatever its loop reported
+(:meth:`SimulationResult.first_nonfinite`).  A run stopped by Ctrl-C
 (``"interrupted"``) or by a step budget (``"stopped"``) keeps its data the same way.
 
 Files: ``save`` writes atomically (``armlab.files``) with a CRC-32 of header and data in the
@@ -104,6 +107,33 @@ class SimulationResult:
         """The (N,) column ``label`` of ``group``, e.g. ``result.column("q", "theta2")``."""
         data = self.groups()[group]
         return data[:, list(self.labels[group]).index(label)]
+
+    def first_nonfinite(self) -> tuple[int, str, str] | None:
+        """(row, group, label) of the first logged value that is NaN or ±inf (time first, then
+        the groups in :meth:`groups` order), or None when every value is finite."""
+        best = None
+        if not np.all(np.isfinite(self.t)):
+            best = (int(np.argmin(np.isfinite(self.t))), "t", "t")
+        for name, data in self.groups().items():
+            bad = ~np.isfinite(data)
+            if not bad.any():
+                continue
+            rows = bad.any(axis=1)
+            row = int(np.argmax(rows))
+            if best is None or row < best[0]:
+                column = int(np.argmax(bad[row]))
+                labels = self.labels.get(name, ())
+                best = (row, name, str(labels[column]) if column < len(labels) else str(column))
+        return best
+
+    def head(self, rows: int, **changes) -> SimulationResult:
+        """The result of the first ``rows`` rows (views, no copies), with ``changes`` to its
+        other fields (``status``, ``diagnosis``)."""
+        fields = {**vars(self), **changes}
+        for name in ("t", *_CORE):
+            fields[name] = fields[name][:rows]
+        fields["signals"] = {name: data[:rows] for name, data in self.signals.items()}
+        return SimulationResult(**fields)
 
     def _layout(self) -> list:
         return [[g, list(self.labels[g]), list(self.units[g])] for g in self.groups()]

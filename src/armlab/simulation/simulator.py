@@ -339,6 +339,17 @@ def _describe_terms(terms):
 
 
 def _finish(setup, result, status, step, joint, on_divergence):
+    # Whatever the loop reported, a logged value that is not finite (NaN, ±inf) is no "ok"
+    # run: it has diverged at that row, and its data stops before it.
+    bad = result.first_nonfinite() if status == 0 else None
+    if bad is not None:
+        row, group, label = bad
+        message = (f"simulation diverged at t = {float(result.t[row]):.6g} s (logged row {row}): non-finite "
+                   f"{group}{'' if group == 't' else f' ({label})'}")
+        result = result.head(row, status="diverged", diagnosis=message)
+        if on_divergence == "return":
+            return result
+        raise SimulationDiverged(message, result)
     if status == 0:
         return result
     message = setup.diagnosis(status, step, joint, step * setup.dt)

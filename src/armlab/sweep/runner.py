@@ -24,12 +24,14 @@ Executors:
 
 from __future__ import annotations
 
+import contextlib
+import logging
 import math
 import os
 import time
 from dataclasses import dataclass
 
-from armlab.errors import ArmlabError, SweepFileError
+from armlab.errors import ArmlabError, SchedulerAddressError, SweepFileError
 from armlab.sweep.metrics import METRIC_NAMES, measure
 from armlab.sweep.spec import SweepSpec, load_sweep
 from armlab.sweep.store import SweepStore, read_results
@@ -171,14 +173,27 @@ def _store(store, chunk, columns, counts, bar):
     bar.update(len(columns["run"]))
 
 
-def _dask_client(scheduler, workers, source):
+def _dask_client(scheduler, workers, source, from_file: bool):
+    """(client, local cluster or None).  A scheduler address that cannot be used — malformed
+    (``junk``, ``[::1``), of a kind Dask does not speak (``http://``) or cannot use here
+    (``tls://`` without a security context, ``ucx://`` without UCX), or unreachable — is bad
+    input: a :class:`SweepFileError` on ``cluster.scheduler`` when the sweep file gave it, a
+    :class:`SchedulerAddressError` when the caller did."""
     try:
         from distributed import Client, LocalCluster
     except ImportError:
         raise SweepFileError(source, "cluster", "a Dask executor needs dask.distributed "
                                                  "(pip install 'armlab[cluster]')") from None
     if scheduler:
-        return Client(scheduler, timeout="20s"), None
+        try:
+            return Client(scheduler, timeout="20s"), None
+        except (ValueError, TypeError, ImportError, NotImplementedError, OSError) as error:
+            # Dask reports these as plain exceptions of the address's parser or connector.
+            detail = " ".join(str(error).split()) or type(error).__name__
+            reason = f"cannot use the Dask scheduler {scheduler!r} ({detail})"
+            if from_file:
+                raise SweepFileError(source, "cluster.scheduler", reason) from None
+            raise SchedulerAddressError(reason) from None
     import dask
 
     # Without the workers' statistical profiler (a stack sample of the task's thread every
@@ -188,6 +203,23 @@ def _dask_client(scheduler, workers, source):
         cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
                                dashboard_address=":0")
     return Client(cluster), cluster
+
+
+@contextlib.contextmanager
+def _quiet_shutdown():
+    """Dask's warnings while a cluster shuts down ("Worker process still alive after 4.0
+    seconds, killing": a worker process slow to exit on a loaded machine, which its nanny then
+    ends) say nothing about the sweep, whose rows are written by then: its loggers are held to
+    errors for the shutdown."""
+    loggers = [logging.getLogger(name) for name in ("distributed", "distributed.nanny")]
+    levels = [logger.level for logger in loggers]
+    for logger in loggers:
+        logger.setLevel(logging.ERROR)
+    try:
+        yield
+    finally:
+        for logger, level in zip(loggers, levels, strict=True):
+            logger.setLevel(level)
 
 
 def _same(value):
@@ -303,7 +335,8 @@ def sweep(spec, out, *, threads: int | None = None, processes: int | None = None
     if not isinstance(spec, SweepSpec):
         spec = load_sweep(spec)
     cluster = dict(spec.cluster)
-    if scheduler is None and workers is None and threads is None and processes is None:
+    from_file = scheduler is None and workers is None and threads is None and processes is None
+    if from_file:
         scheduler, workers = cluster.get("scheduler"), cluster.get("workers")
         threads, processes = cluster.get("threads"), cluster.get("processes")
     if scheduler is None and workers is None and threads is None and processes is None:
@@ -322,7 +355,7 @@ def sweep(spec, out, *, threads: int | None = None, processes: int | None = None
     if not pending:
         executor, counts = "nothing left to run", {}
     elif scheduler or workers:
-        client, local_cluster = _dask_client(scheduler, workers, spec.source)
+        client, local_cluster = _dask_client(scheduler, workers, spec.source, from_file)
         executor = f"dask {client.scheduler.address}"
         try:
             if log is not None:
@@ -336,9 +369,10 @@ def sweep(spec, out, *, threads: int | None = None, processes: int | None = None
             finally:
                 bar.close()
         finally:
-            client.close()
-            if local_cluster is not None:
-                local_cluster.close()
+            with _quiet_shutdown():
+                client.close()
+                if local_cluster is not None:
+                    local_cluster.close()
     else:
         threads = threads or os.cpu_count() or 1
         executor = (f"{processes} local processes" if processes

@@ -331,6 +331,12 @@ def _random_axis(key, spec, file, where) -> Axis:
         raise SweepFileError(file, f"{where}.{kind}", "bounds must be finite")
     if kind == "uniform" and not a < b:
         raise SweepFileError(file, f"{where}.{kind}", f"expected a < b, got [{a:g}, {b:g}]")
+    # NumPy draws a + (b − a)·u and μ + σ·z: a width or a spread that overflows gives no number.
+    if kind == "uniform" and not math.isfinite(b - a):
+        raise SweepFileError(file, f"{where}.{kind}", f"b − a overflows ([{a:g}, {b:g}])")
+    if kind == "normal" and not math.isfinite(abs(a) + 40.0 * b):
+        raise SweepFileError(file, f"{where}.{kind}", f"μ and σ of [{a:g}, {b:g}] give draws beyond "
+                                                      "the range of a float")
     if kind == "normal" and not b > 0:
         raise SweepFileError(file, f"{where}.{kind}", f"σ must be positive, got {b:g}")
     if kind == "log_uniform" and not 0 < a < b:

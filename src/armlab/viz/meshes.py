@@ -29,9 +29,10 @@ import numpy as np
 
 from armlab.errors import RobotFileError
 from armlab.inputs import read_input_bytes
+from armlab.model.references import ASSET_LIMIT
 
-MESH_LIMIT = 64 * 1024 * 1024
-"""Largest mesh file read [bytes] (64 MiB)."""
+MESH_LIMIT = ASSET_LIMIT
+"""Largest mesh file read [bytes] (64 MiB, the limit of every asset a robot file names)."""
 
 MAX_VERTICES = 2400
 """Vertices of all the meshes of a robot together, at most (see :func:`body_meshes`)."""
