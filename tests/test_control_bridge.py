@@ -111,3 +111,33 @@ def test_a_controller_for_another_robot_is_refused_in_one_line():
     plant, controller, _ = computed_torque([1, 1, 1], [1, 1, 1])
     with pytest.raises(ProtocolError, match="3 joints, the plant 1"):
         closed_loop_system(armlab.load_robot("link1"), controller)
+
+
+def _with_coulomb(robot, coulomb):
+    from armlab.model.robot import Friction
+
+    joints = [replace(j, friction=Friction(viscous=j.friction.viscous, coulomb=c))
+              for j, c in zip(robot.joints, coulomb, strict=True)]
+    return robot.replace(joints=joints)
+
+
+def test_linearize_refuses_the_sgn_discontinuity_of_coulomb_friction_at_rest():
+    """At q̇ = 0 the difference of F_s sgn q̇ is F_s / h: the fastest pole followed the step
+    (−2.1·10⁴ at 10⁻³, −2.1·10⁵ at 10⁻⁴).  It is refused, naming the joint."""
+    plant, controller, q_des = computed_torque([6, 20, 42], [5, 9, 13])
+    rough = _with_coulomb(plant, [0.0, 2.0, 0.0])
+    system = closed_loop_system(rough, controller)
+    with pytest.raises(armlab.errors.InputError, match=f"joint {rough.joints[1].name} .* Coulomb friction"):
+        linearize(system, initial_state(rough, controller, q_des))
+    with pytest.raises(ValueError, match="no derivative at q̇ = 0"):
+        linearize(plant_system(rough), np.concatenate([q_des, np.zeros(3)]), step=1e-4)
+
+
+def test_linearize_with_coulomb_friction_while_sliding_is_independent_of_the_step():
+    """Away from q̇ = 0, F_s sgn q̇ is constant near the point: the same A at any step."""
+    plant, controller, q_des = computed_torque([6, 20, 42], [5, 9, 13])
+    rough = _with_coulomb(plant, [0.0, 2.0, 0.0])
+    x = np.concatenate([q_des, [0.0, 0.5, 0.0]])
+    system = plant_system(rough)
+    a, b = linearize(system, x, step=1e-3).A, linearize(system, x, step=1e-4).A
+    np.testing.assert_allclose(a, b, atol=1e-6, rtol=1e-6)

@@ -28,7 +28,7 @@ import numpy as np
 
 from armlab.control.base import Controller, Environment
 from armlab.dynamics import forward_dynamics
-from armlab.errors import ProtocolError
+from armlab.errors import InputError, ProtocolError
 from armlab.kinematics import forward_kinematics, geometric_jacobian
 
 
@@ -69,8 +69,10 @@ def plant_system(plant, *, environment: Environment | None = None, name: str | N
         return np.concatenate([qd, forward_dynamics(plant, q, qd, np.asarray(u, dtype=float), h_e)])
 
     states = _labels(plant, "q") + _labels(plant, "qd")
-    return control.nlsys(update, None, inputs=_labels(plant, "tau"), states=states, outputs=states,
-                         name=name or plant.name)
+    system = control.nlsys(update, None, inputs=_labels(plant, "tau"), states=states, outputs=states,
+                           name=name or plant.name)
+    system.armlab_plant = plant  # for linearize's check of the Coulomb term
+    return system
 
 
 class LawEvaluator:
@@ -119,8 +121,10 @@ def closed_loop_system(plant, controller: Controller, *, environment: Environmen
     labels = controller.state_labels()
     z_names = list(labels) if len(labels) == law.k else [f"z{i}" for i in range(law.k)]
     states = _labels(plant, "q") + _labels(plant, "qd") + z_names
-    return control.nlsys(update, None, inputs=_labels(plant, "tau_d"), states=states, outputs=states,
-                         name=name or f"{plant.name} under {type(controller).__name__}")
+    system = control.nlsys(update, None, inputs=_labels(plant, "tau_d"), states=states, outputs=states,
+                           name=name or f"{plant.name} under {type(controller).__name__}")
+    system.armlab_plant = plant  # for linearize's check of the Coulomb term
+    return system
 
 
 def initial_state(plant, controller: Controller, q, qd=None) -> np.ndarray:
@@ -141,10 +145,17 @@ def linearize(system, x, u=None, t: float = 0.0, *, step: float = 1e-3):
     plain central difference, so h can stay large where rounding would dominate.  At an
     equilibrium (f(x, u, t) = 0) this is the linearisation; at a point of a trajectory, the
     linear time-varying model frozen at ``t``.
+
+    Coulomb friction F_s sgn q̇ has no derivative at q̇ = 0: a difference across it is
+    F_s / h, a step-size artefact (fastest pole ∝ 1/``step``).  For a system made here, a
+    joint with F_s ≠ 0 whose |q̇_i| is below its difference width h is refused
+    (``InputError``): linearise at a velocity away from zero, or a plant without F_s (the
+    stiction then holds the joint; the linear model of its sliding is the one without it).
     """
     control = _control()
     x = np.asarray(x, dtype=float)
     u = np.zeros(system.ninputs) if u is None else np.asarray(u, dtype=float)
+    _check_coulomb(getattr(system, "armlab_plant", None), x, step)
 
     def column(point, i, f):
         def central(h):
@@ -167,3 +178,19 @@ def linearize(system, x, u=None, t: float = 0.0, *, step: float = 1e-3):
     return control.ss(A, B, np.eye(x.size), np.zeros((x.size, u.size)),
                       inputs=system.input_labels, states=system.state_labels,
                       outputs=system.output_labels, name=f"{system.name} linearised")
+
+
+def _check_coulomb(plant, x: np.ndarray, step: float) -> None:
+    """Refuse a difference stencil that crosses the sgn q̇ of a joint with Coulomb friction."""
+    if plant is None:
+        return
+    n = plant.n
+    coulomb = np.asarray(plant.arrays.coulomb, dtype=float)
+    for i, joint in enumerate(plant.joints):
+        qd = float(x[n + i])
+        if coulomb[i] != 0 and abs(qd) < step * max(1.0, abs(qd)):
+            unit = "N" if joint.kind == "prismatic" else "N·m"
+            raise InputError(
+                f"linearize: joint {joint.name} of {plant.name} has Coulomb friction F_s = {coulomb[i]:g} "
+                f"{unit} and q̇ = {qd:g} within the difference step {step:g}: F_s sgn q̇ has no derivative "
+                "at q̇ = 0 (the result would be a step-size artefact); linearise at |q̇| > step or without F_s")

@@ -230,7 +230,7 @@ class JointInverseDynamics(Controller):
     ``bias_model`` (optional) is the model of n̂ alone, B̂ staying the ``model``'s: the seed's A7
     mismatch keeps B̂ = B and computes Ĉ, ĝ with m_Link4 = 0.16 kg.  Its equilibrium at rest
     (q̇ = 0, constant q_des) is B̂(q) K_P q̃ = g(q) − ĝ(q), q = q_des − q̃
-    (:func:`armlab.theory.inverse_dynamics_equilibrium`).
+    (:func:`armlab.theory.computed_torque_equilibrium`).
 
     B̂ y + n̂ is evaluated as the model's inverse dynamics at q̈ = y, by its closed form or its
     RNEA as ``dynamics`` says ("auto", "closed_form" or "numeric", see ``armlab.specialise``).

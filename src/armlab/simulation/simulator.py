@@ -61,8 +61,9 @@ from armlab.errors import SimulationDiverged, SimulationError, SimulationInterru
 from armlab.kernels.environment import FreeSpaceParams, free_space_law
 from armlab.simulation import loop, python_loop
 from armlab.simulation.disturbances import encode_disturbances
-from armlab.simulation.joint_limits import annotate, check_mode, joint_stop
+from armlab.simulation.joint_limits import _user_stacklevel, annotate, check_mode, joint_stop
 from armlab.simulation.results import SimulationResult
+from armlab.simulation.step_check import check_step
 from armlab.simulation.stepping import BUDGET, INTERRUPTED, SOLVERS, run_interruptible, solve_stepwise
 from armlab.specialise import ClosedFormUnavailable, choice_problem, closed_form_status, plant_kernels
 
@@ -419,6 +420,8 @@ def simulate(plant, controller, *, q0, qd0=None, t_final, dt, method="rk4", cont
     if max_steps is not None and (isinstance(max_steps, bool) or not (
             isinstance(max_steps, (int, np.integer)) and max_steps >= 1)):
         raise SimulationError(f"max_steps: must be a positive integer, got {max_steps!r}")
+    if method == "rk4" and not setup.sampled:
+        check_step(plant, controller, setup.x0[:setup.n], setup.dt, stacklevel=_user_stacklevel())
     if setup.python_law is not None:
         return _run_python(setup, controller.params(), meta, on_divergence, method, rtol, atol, integrator)
     if method == "rk4":

@@ -8,7 +8,7 @@ thread raises :class:`BudgetExceeded` in the working thread once its seconds are
 (``PyThreadState_SetAsyncExc``, the mechanism behind Ctrl-C in a thread), and the caller
 records in one line what was skipped and why.
 
-:class:`BudgetExceeded` derives from ``BaseException`` so that SymPy's own ``except
+:class:`BudgetExceeded` (``armlab.errors``) derives from ``BaseException`` so that SymPy's own ``except
 Exception`` blocks do not swallow it; an exception that lands where Python cannot propagate
 it (a finalizer) is sent again every :data:`RESEND` seconds until the block has ended.
 """
@@ -19,22 +19,13 @@ import ctypes
 import threading
 import time
 
+from armlab.errors import BudgetExceeded
+
 RESEND = 0.25
 """Seconds between two deliveries of the same expired budget (see the module docstring)."""
 
 _set_async_exc = ctypes.pythonapi.PyThreadState_SetAsyncExc
 _set_async_exc.argtypes = (ctypes.c_ulong, ctypes.py_object)
-
-
-class BudgetExceeded(BaseException):
-    """A :class:`Budget`'s seconds ran out.  Each budget raises its own subclass (Python
-    raises an asynchronous exception from its class), whose ``budget`` names the budget."""
-
-    budget: Budget | None = None
-
-    def __str__(self) -> str:
-        budget = self.budget
-        return "" if budget is None else f"{budget.what} exceeded its budget of {budget.seconds:g} s"
 
 
 class Budget:
