@@ -262,3 +262,61 @@ def test_a_fifo_urdf_mesh_is_left_out_without_blocking(package):
     from armlab.viz.meshes import body_meshes
 
     assert _load_in_thread(lambda: body_meshes(robot), fifo) == {}
+
+
+# ---------------------------------------------------------------------- scenarios and sweeps
+def _scenario(folder, plant, name="scenario.toml"):
+    from armlab.scenarios import scenario_path
+
+    text = scenario_path("a6_pd_online").read_text(encoding="utf-8")
+    path = folder / name
+    path.write_text(text.replace('plant = "prp"', f"plant = {plant!r}"), encoding="utf-8")
+    return path
+
+
+def test_a_scenario_names_robot_files_under_its_folder_unless_allowed(tmp_path, capfd):
+    """The decision for files that name files: a scenario's robot file, like a robot file's
+    mesh, lies under the naming file's folder; a file named on the command line may lie
+    anywhere, and --allow-outside extends that to what it names."""
+    from armlab.robots import bundled_robot_path
+    from armlab.scenarios import ScenarioFileError, load_scenario_file
+
+    elsewhere, folder = tmp_path / "elsewhere", tmp_path / "experiment"
+    elsewhere.mkdir()
+    folder.mkdir()
+    robot = elsewhere / "arm.toml"
+    robot.write_text(bundled_robot_path("prp").read_text(encoding="utf-8"), encoding="utf-8")
+    (folder / "arm.toml").write_text(robot.read_text(encoding="utf-8"), encoding="utf-8")
+    assert load_scenario_file(_scenario(folder, "arm.toml", "inside.toml")).plant.n == 3
+    for plant in ("../elsewhere/arm.toml", str(robot)):
+        path = _scenario(folder, plant)
+        with pytest.raises(ScenarioFileError, match="plant: the robot file .* lies outside the scenario"):
+            load_scenario_file(path)
+        assert main(["run", str(path), "--t-final", "0.01", "--out", str(tmp_path / "runs")]) == BAD_INPUT
+        assert len(capfd.readouterr().err.strip().splitlines()) == 1
+        assert load_scenario_file(path, allow_outside=True).plant.n == 3
+    assert main(["run", str(path), "--t-final", "0.01", "--out", str(tmp_path / "runs"), "--quiet",
+                 "--allow-outside"]) == OK
+    # The controller's own model is a robot file like the plant.
+    model = _scenario(folder, "arm.toml", "model.toml")
+    model.write_text(model.read_text(encoding="utf-8").replace(
+        "[controller]", f"[controller]\nmodel = {str(robot)!r}"), encoding="utf-8")
+    with pytest.raises(ScenarioFileError, match="controller.model: the robot file"):
+        load_scenario_file(model)
+
+
+def test_a_sweep_names_scenario_files_under_its_folder_unless_allowed(tmp_path, capfd):
+    from armlab.errors import SweepFileError
+    from armlab.sweep import load_sweep_file
+
+    (tmp_path / "experiment").mkdir()
+    scenario = _scenario(tmp_path, "prp")
+    sweep = tmp_path / "experiment" / "sweep.toml"
+    sweep.write_text('scenario = "../scenario.toml"\n[grid]\n"controller.kp" = { values = [1, 2] }\n',
+                     encoding="utf-8")
+    with pytest.raises(SweepFileError, match="scenario: the scenario file '../scenario.toml' lies outside"):
+        load_sweep_file(sweep)
+    assert main(["sweep", str(sweep), "--out", str(tmp_path / "out"), "--quiet"]) == BAD_INPUT
+    assert "outside the sweep file's folder" in capfd.readouterr().err
+    assert load_sweep_file(sweep, allow_outside=True).n_runs == 2
+    assert os.path.samefile(load_sweep_file(sweep, allow_outside=True).scenario_file, scenario)
