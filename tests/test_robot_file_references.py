@@ -320,3 +320,21 @@ def test_a_sweep_names_scenario_files_under_its_folder_unless_allowed(tmp_path, 
     assert "outside the sweep file's folder" in capfd.readouterr().err
     assert load_sweep_file(sweep, allow_outside=True).n_runs == 2
     assert os.path.samefile(load_sweep_file(sweep, allow_outside=True).scenario_file, scenario)
+
+
+@pytest.mark.parametrize("change, field, reason", [
+    ('<body name="link" pos="1e200 0 0.1">', r"body\[link\]\.pos", "1e\\+200 is beyond ±1e\\+12"),
+    ('<body name="link" pos="inf 0 0.1">', r"body\[link\]\.pos", "is not finite"),
+    ('mass="1e300"', r"body\[link\]\.mass", "1e\\+300 is beyond"),
+    ('<joint name="hinge" axis="0 1 0" damping="1e20"/>', r"joint\[hinge\]\.damping", "1e\\+20 is beyond"),
+])
+def test_nonsense_values_of_an_mjcf_file_are_refused_where_read(tmp_path, change, field, reason):
+    """MuJoCo compiles them; a TOML or URDF file with the same values is refused (1e12 at most)."""
+    text = MJCF.replace("INCLUDE", "").replace("ASSETS", "").replace("GEOM", "").replace("COMPILER", "")
+    original = {"mass": 'mass="1"', "<body": '<body name="link" pos="0 0 0.1">',
+                "<joint": '<joint name="hinge" axis="0 1 0"/>'}
+    key = next(k for k in original if change.startswith(k))
+    path = tmp_path / "arm.xml"
+    path.write_text(text.replace(original[key], change))
+    with pytest.raises(armlab.RobotFileError, match=rf"arm\.xml: {field}: {reason}"):
+        armlab.load_robot(path)
