@@ -31,7 +31,8 @@ def test_every_exception_class_is_defined_in_errors_py():
 
 def _class_line(relative, name):
     tree = ast.parse((SRC / relative).read_text(encoding="utf-8"))
-    return next(node.lineno for node in ast.walk(tree) if isinstance(node, ast.ClassDef) and node.name == name)
+    return next(node.lineno for node in ast.walk(tree)
+                if isinstance(node, ast.ClassDef) and node.name == name)
 
 
 @pytest.mark.parametrize("name", [name for name, value in vars(errors).items()

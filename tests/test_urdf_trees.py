@@ -199,12 +199,15 @@ def test_course_of_a_branched_file_names_its_tip(tmp_path):
     """The course generated for a URDF loaded with a tip writes plant_tip, so its files load."""
     from armlab.course import write_course
     from armlab.robots import robot_reference
-    from armlab.scenarios import load_scenario
+    from armlab.scenarios import ScenarioFileError, load_scenario
 
     robot = armlab.load_robot(_branched(tmp_path), tip="tool0")
     reference, tip = robot_reference(robot)
     assert reference == str((tmp_path / "branched.urdf").resolve()) and tip == "tool0"
     paths, _ = write_course(robot, reference, tmp_path / "course", tip=tip)
     assert paths and all('plant_tip = "tool0"' in p.read_text() for p in paths)
-    assert load_scenario(paths[0]).plant.joint_names == ["shoulder", "slide"]
+    # The robot file lies outside the course folder: read when allowed (docs/robot-files.md).
+    assert load_scenario(paths[0], allow_outside=True).plant.joint_names == ["shoulder", "slide"]
+    with pytest.raises(ScenarioFileError, match="lies outside the scenario"):
+        load_scenario(paths[0])
     assert robot_reference(armlab.load_robot("prp")) == ("prp", None)

@@ -32,4 +32,12 @@ def run(args) -> int:
         print(path)
     for reason in skipped:
         print(f"not generated: {reason}")
+    from pathlib import Path
+
+    from armlab.model.references import is_under
+
+    if Path(reference).suffix and not is_under(reference, Path(args.out).resolve()):
+        # A scenario may name robot files under its own folder only, unless told otherwise.
+        print(f"note: the scenarios name {reference}, outside {args.out}: run them with "
+              "`armlab run FILE --allow-outside`")
     return 0

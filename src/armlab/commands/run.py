@@ -29,6 +29,9 @@ def register(subparsers) -> None:
     parser.add_argument("--t-final", type=float, metavar="T", help="simulate T seconds instead")
     parser.add_argument("--method", choices=("rk4", "adaptive"), help="override the integrator")
     parser.add_argument("--quiet", action="store_true", help="no progress lines and no warnings")
+    parser.add_argument("--allow-outside", action="store_true",
+                        help="let the scenario name robot files outside its folder, and those name "
+                             "files outside theirs (meshes, included MJCF files)")
     parser.add_argument("--format", default="npz,csv", metavar="LIST",
                         help=f"comma-separated data formats among {', '.join(f[1:] for f in FORMATS)} "
                              "(default: npz,csv)")
@@ -45,7 +48,8 @@ def run(args) -> int:
             raise CommandError(f"--format: unknown format {fmt!r} (use npz, csv, parquet)")
     result, written = run_scenario(args.scenario, out_dir=args.out, formats=formats, plot=args.plot,
                                    diagram=args.diagram, t_final=args.t_final, method=args.method,
-                                   progress=None if args.quiet else sys.stderr)
+                                   progress=None if args.quiet else sys.stderr,
+                                   allow_outside=args.allow_outside)
     final = ", ".join(f"{label} {value:+.4g}" for label, value in
                       zip(result.labels["q"], result.q[-1], strict=True))
     print(f"{result.meta['scenario']}: {len(result.t)} samples to t = {result.t[-1]:g} s; final q: {final}")
@@ -71,7 +75,7 @@ def run(args) -> int:
 
 
 def run_scenario(name_or_path, *, out_dir=None, formats=("npz", "csv"), plot=False, diagram=False,
-                 t_final=None, method=None, progress=None):
+                 t_final=None, method=None, progress=None, allow_outside=False):
     """Run a scenario; returns ``(result, written_paths)``.
 
     ``out_dir``: where ``<name>.<format>`` (with ``plot`` the scope PNGs, with ``diagram`` the
@@ -79,7 +83,8 @@ def run_scenario(name_or_path, *, out_dir=None, formats=("npz", "csv"), plot=Fal
     written when it is None.  It is checked for writing before the run and created after it.
     A run that diverged, was stopped by its step budget or was interrupted by Ctrl-C is kept
     (``result.status`` says which) and its data written like any other.  ``progress``: a text
-    stream for a start/finish line.
+    stream for a start/finish line.  ``allow_outside``: the scenario may name robot files
+    outside its folder (:func:`armlab.scenarios.load_scenario`).
     """
     # Imported here: building the command-line parser does not load the simulator.
     from armlab.errors import SimulationInterrupted
@@ -87,7 +92,7 @@ def run_scenario(name_or_path, *, out_dir=None, formats=("npz", "csv"), plot=Fal
     from armlab.scenarios import ScenarioFileError, load_scenario
     from armlab.simulation import SimulationDiverged
 
-    scenario = load_scenario(name_or_path)
+    scenario = load_scenario(name_or_path, allow_outside=allow_outside)
     if t_final is not None and not (math.isfinite(t_final) and t_final > 0):
         raise ScenarioFileError(scenario.source or scenario.name, "--t-final",
                                 f"must be a positive finite time, got {t_final!r}")

@@ -28,6 +28,9 @@ def register(subparsers) -> None:
     parser.add_argument("--plot", action="store_true", help="draw the sweep's plots into DIR/plots")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
     parser.add_argument("--list", action="store_true", help="list the bundled sweeps")
+    parser.add_argument("--allow-outside", action="store_true",
+                        help="let the sweep file name a scenario file outside its folder, and that "
+                             "scenario robot files outside its own")
     parser.set_defaults(func=run)
 
 
@@ -42,7 +45,7 @@ def run(args) -> int:
         return 0
     if args.sweep is None:
         raise CommandError("FILE: give a sweep file or a bundled sweep name (--list shows them)")
-    spec = load_sweep(args.sweep)
+    spec = load_sweep(args.sweep, allow_outside=args.allow_outside)
     if args.plot:
         from armlab.viz.sweeps import check_plots
 

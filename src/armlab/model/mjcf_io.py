@@ -88,6 +88,52 @@ def _compile(path: Path, allow_outside: bool = False):
     return mujoco, m, [f"MuJoCo warned: {message}" for message in dict.fromkeys(warned)]
 
 
+# (MjModel array, object kind, attribute in the file) of every value the robot is built from or
+# drawn with; each must be finite and, but for joint ranges, at most MAX_MAGNITUDE in size.
+_CHECKED = (("body_pos", "body", "pos"), ("body_quat", "body", "quat"), ("body_ipos", "body", "inertial.pos"),
+            ("body_iquat", "body", "inertial.quat"), ("body_mass", "body", "mass"),
+            ("body_inertia", "body", "inertia"), ("jnt_pos", "joint", "pos"), ("jnt_axis", "joint", "axis"),
+            ("jnt_range", "joint", "range"), ("geom_pos", "geom", "pos"), ("geom_quat", "geom", "quat"),
+            ("geom_size", "geom", "size"), ("mesh_vert", "mesh", "vertex"))
+_PER_DOF = (("dof_damping", "damping"), ("dof_frictionloss", "frictionloss"), ("dof_armature", "armature"))
+
+
+def _check_values(path, mujoco, m) -> None:
+    """Every number armlab reads from the compiled model is finite and, but for joint ranges,
+    within ±MAX_MAGNITUDE (1e12), as in a TOML or URDF robot file: MuJoCo compiles a body at
+    1e200 m or a mass of 1e300 kg, whose dynamics is no number."""
+    from armlab.model.toml_io import MAX_MAGNITUDE
+
+    kinds = {"body": mujoco.mjtObj.mjOBJ_BODY, "joint": mujoco.mjtObj.mjOBJ_JOINT,
+             "geom": mujoco.mjtObj.mjOBJ_GEOM, "mesh": mujoco.mjtObj.mjOBJ_MESH}
+
+    def check(values, kind, index, attribute, bound):
+        values = np.atleast_1d(np.asarray(values, dtype=float))
+        bad = ~np.isfinite(values) | (np.abs(values) > bound)
+        if bad.any():
+            name = mujoco.mj_id2name(m, kinds[kind], index) if kind in kinds else None
+            value = float(values[np.argmax(bad)])
+            reason = (f"is not finite ({value:g})" if not np.isfinite(value) else
+                      f"{value:g} is beyond ±{bound:g}, the largest magnitude of a geometric or "
+                      "inertial value")
+            _fail(path, f"{kind}[{name or index}].{attribute}", reason)
+
+    for array, kind, attribute in _CHECKED:
+        data = np.asarray(getattr(m, array), dtype=float)
+        if kind == "mesh":   # vertices of all meshes in one array: name the mesh that holds one
+            for mesh in range(m.nmesh):
+                start, count = int(m.mesh_vertadr[mesh]), int(m.mesh_vertnum[mesh])
+                check(data[start:start + count], "mesh", mesh, attribute, MAX_MAGNITUDE)
+            continue
+        for index in range(len(data)):
+            check(data[index], kind, index, attribute, np.inf if array == "jnt_range" else MAX_MAGNITUDE)
+    for array, attribute in _PER_DOF:
+        data = np.asarray(getattr(m, array), dtype=float)
+        for dof in range(len(data)):
+            check(data[dof], "joint", int(m.dof_jntid[dof]), attribute, MAX_MAGNITUDE)
+    check(m.opt.gravity, "option", 0, "gravity", MAX_MAGNITUDE)
+
+
 def _rotation(axis, angle) -> np.ndarray:
     """Rot(a, angle) about the unit axis a (Rodrigues), (3, 3)."""
     a = np.asarray(axis, dtype=float) / np.linalg.norm(axis)
@@ -232,6 +278,7 @@ def load_mjcf(path: str | Path, *, tip: str | None = None, gravity=None, name: s
 
     path = Path(path)
     mujoco, m, warned = _compile(path, allow_outside)
+    _check_values(path, mujoco, m)
     model_name, links, joints, g_world, qpos0, frame_names = mjcf_tree(path, mujoco, m)
     robot = robot_from_tree(path, model_name, links, joints, tip=tip, gravity=gravity, name=name,
                             lock=lock, file_kind="MJCF", root_gravity=g_world, default_lock=qpos0,

@@ -82,5 +82,6 @@ def place_visuals(path, links: dict, body_of: dict, pose_in_body: dict, *,
                 continue
             scale = np.ones(3) if mesh.scale is None else np.broadcast_to(
                 np.asarray(mesh.scale, dtype=float), (3,))
-            visuals.append(Visual(body=body, pose=pose, mesh=str(resolved), scale=scale, part=link_name))
+            visuals.append(Visual(body=body, pose=pose, mesh=os.path.realpath(resolved), scale=scale,
+                                  part=link_name))
     return visuals, missing, unsized, refused

@@ -210,15 +210,16 @@ def _disturbance(terms, plant: Robot, path) -> tuple:
     return disturbance
 
 
-def load_scenario_file(path) -> Scenario:
+def load_scenario_file(path, *, allow_outside: bool = False) -> Scenario:
     """Read and check a scenario file (see the module docstring)."""
     path = Path(path)
-    return scenario_from_table(read_scenario_toml(path), path)
+    return scenario_from_table(read_scenario_toml(path), path, allow_outside=allow_outside)
 
 
-def scenario_from_table(data: dict, path) -> Scenario:
+def scenario_from_table(data: dict, path, *, allow_outside: bool = False) -> Scenario:
     """The scenario the parsed TOML ``data`` describes; ``path`` names it in messages and
-    anchors relative robot files (a sweep builds each run's scenario from edited tables)."""
+    anchors relative robot files (a sweep builds each run's scenario from edited tables).
+    Robot files must lie under the folder of ``path`` unless ``allow_outside``."""
     path = Path(path)
     if not isinstance(data, dict):
         raise ScenarioFileError(path, "file", "expected a table")
@@ -228,10 +229,11 @@ def scenario_from_table(data: dict, path) -> Scenario:
     for key in ("plant", "simulation", "controller"):
         if key not in data:
             raise ScenarioFileError(path, key, "missing")
-    plant = robot(data["plant"], data.get("plant_link_mass", {}), path, "plant", data.get("plant_tip"))
+    plant = robot(data["plant"], data.get("plant_link_mass", {}), path, "plant", data.get("plant_tip"),
+                  allow_outside)
     settings = _settings(data["simulation"], path, plant.n)
     controller = build(Controller, data["controller"], path, "controller", plant=data["plant"],
-                       plant_tip=data.get("plant_tip"))
+                       plant_tip=data.get("plant_tip"), allow_outside=allow_outside)
     disturbance = _disturbance(data.get("disturbance", []), plant, path)
     environment = None
     if "environment" in data:
@@ -273,9 +275,10 @@ def scenario_path(name_or_path) -> Path:
     return path
 
 
-def load_scenario(name_or_path) -> Scenario:
-    """A bundled scenario by name (``"a7_id_via_points"``) or a scenario file."""
-    return load_scenario_file(scenario_path(name_or_path))
+def load_scenario(name_or_path, *, allow_outside: bool = False) -> Scenario:
+    """A bundled scenario by name (``"a7_id_via_points"``) or a scenario file; the robot files
+    a scenario file names must lie under its folder unless ``allow_outside``."""
+    return load_scenario_file(scenario_path(name_or_path), allow_outside=allow_outside)
 
 
 def list_scenarios() -> list[Scenario]:

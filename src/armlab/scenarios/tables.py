@@ -119,14 +119,14 @@ class Condition(typing.NamedTuple):
 
 
 @functools.lru_cache(maxsize=64)
-def _robot_of_file(text: str, tip, identity: tuple) -> Robot:
+def _robot_of_file(text: str, tip, identity: tuple, allow_outside: bool = False) -> Robot:
     """The robot of ``text`` (its ``tip`` link chosen) read once per version of its file
     (``identity``: the file's absolute path, modification time and size), since a sweep builds
     thousands of scenarios from the same robot files; a Robot is frozen, so the copies it hands
     out are one object."""
     from armlab.robots import load_robot
 
-    return load_robot(text, tip=tip)
+    return load_robot(text, tip=tip, allow_outside=allow_outside)
 
 
 @functools.cache
@@ -137,21 +137,26 @@ def _bundled_robots() -> dict[str, Path]:
     return {name: bundled_robot_path(name) for name in bundled_robot_names()}
 
 
-def _load_robot(text: str, tip=None) -> Robot:
+def _load_robot(text: str, tip=None, allow_outside: bool = False) -> Robot:
     from armlab.robots import load_robot
 
     path = Path(text) if Path(text).suffix else _bundled_robots().get(text)
     try:
         stat = path.stat()
     except (OSError, AttributeError):
-        return load_robot(text, tip=tip)  # says what is wrong with the name or file (or loads a zoo arm)
-    return _robot_of_file(text, tip, (str(path.absolute()), stat.st_mtime_ns, stat.st_size))
+        # Says what is wrong with the name or file (or loads a zoo arm).
+        return load_robot(text, tip=tip, allow_outside=allow_outside)
+    return _robot_of_file(text, tip, (str(path.absolute()), stat.st_mtime_ns, stat.st_size), allow_outside)
 
 
-def robot(name, overrides, file, where, tip=None) -> Robot:
+def robot(name, overrides, file, where, tip=None, allow_outside: bool = False) -> Robot:
     """The robot ``name`` (bundled name or file, relative to the scenario file) with its link
     masses overridden by ``overrides`` ({link: mass}, the ``<where>_link_mass`` key); ``tip``
-    (the ``<where>_tip`` key) chooses the end-effector link of a URDF/MJCF tree."""
+    (the ``<where>_tip`` key) chooses the end-effector link of a URDF/MJCF tree.  A robot file
+    must lie under the scenario file's folder unless ``allow_outside`` (which also lets the
+    robot file name files outside its own folder, :mod:`armlab.model.references`)."""
+    from armlab.model.references import is_under
+
     if not isinstance(name, str):
         raise ScenarioFileError(file, where, f"expected a robot name or file, got {_shorten(name)}")
     if tip is not None and not isinstance(tip, str):
@@ -159,8 +164,11 @@ def robot(name, overrides, file, where, tip=None) -> Robot:
     path = Path(name)
     if path.suffix and not path.is_absolute():
         path = Path(file).parent / path
+    if path.suffix and not allow_outside and not is_under(path, Path(file).absolute().parent.resolve()):
+        raise ScenarioFileError(file, where, f"the robot file {_shorten(name)} lies outside the scenario "
+                                             "file's folder (allow_outside=True or --allow-outside reads it)")
     try:
-        loaded = _load_robot(str(path) if path.suffix else name, tip)
+        loaded = _load_robot(str(path) if path.suffix else name, tip, allow_outside)
     except ArmlabError as error:
         raise ScenarioFileError(file, where, str(error)) from None
     if not isinstance(overrides, dict):
@@ -276,11 +284,13 @@ def _split_poses(declaration: ScenarioType, table: dict, file, where) -> dict:
     return arguments
 
 
-def build(base: type, table, file, where: str, plant: str | None = None, plant_tip: str | None = None):
+def build(base: type, table, file, where: str, plant: str | None = None, plant_tip: str | None = None,
+          allow_outside: bool = False):
     """An instance of the registered subclass of ``base`` that ``table`` describes.
 
     ``where`` names the table in messages ("controller"); ``plant`` is the plant's name (and
-    ``plant_tip`` its tip), the default of a required ``Robot`` field (a controller's ``model``).
+    ``plant_tip`` its tip), the default of a required ``Robot`` field (a controller's ``model``);
+    ``allow_outside`` as for :func:`robot`.
     """
     if not isinstance(table, dict):
         raise ScenarioFileError(file, where, "expected a table")
@@ -308,7 +318,7 @@ def build(base: type, table, file, where: str, plant: str | None = None, plant_t
         if hint is Robot and (given or (required and plant is not None)):
             tip = table.get(f"{name}_tip", None if name in table else plant_tip)
             arguments[name] = robot(table.get(name, plant), table.get(f"{name}_link_mass", {}),
-                                    file, f"{where}.{name}", tip)
+                                    file, f"{where}.{name}", tip, allow_outside)
         if required and name not in arguments:
             raise ScenarioFileError(file, f"{where}.{name}", "missing")
     try:

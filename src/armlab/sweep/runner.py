@@ -49,7 +49,7 @@ def run_one(spec: SweepSpec, index: int) -> dict:
             return {**row, "status": "invalid",
                     "diagnosis": f"{spec.source}: derived.{key}: {expression!r} gives no finite number"}
     try:
-        result = scenario_from_table(table, spec.scenario_file).run()
+        result = scenario_from_table(table, spec.scenario_file, allow_outside=spec.allow_outside).run()
     except SimulationDiverged as error:
         result = error.result
     except (ArmlabError, ValueError, ArithmeticError) as error:
@@ -309,7 +309,8 @@ def joint_steps(spec: SweepSpec) -> int:
     from armlab.scenarios import scenario_from_table
 
     try:
-        scenario = scenario_from_table(spec.table(0)[1], spec.scenario_file)
+        scenario = scenario_from_table(spec.table(0)[1], spec.scenario_file,
+                                       allow_outside=spec.allow_outside)
         settings = scenario.simulation
         return scenario.plant.n * round(float(settings["t_final"]) / float(settings["dt"]))
     except (ArmlabError, ValueError, ArithmeticError, LookupError, TypeError):

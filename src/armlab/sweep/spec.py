@@ -105,6 +105,7 @@ class SweepSpec:
     cluster: tuple[tuple[str, object], ...] = ()
     signals: tuple[str, ...] = ()
     signals_every: int = 10
+    allow_outside: bool = False   # robot files outside the scenario's folder may be read
 
     # ------------------------------------------------------------------ size and layout
     @property
@@ -358,8 +359,11 @@ def read_sweep_toml(path: Path) -> dict:
     return read_input_toml(path, SweepFileError)
 
 
-def load_sweep_file(path) -> SweepSpec:
-    """Read and check a sweep file (see the module docstring)."""
+def load_sweep_file(path, *, allow_outside: bool = False) -> SweepSpec:
+    """Read and check a sweep file (see the module docstring).  A scenario file it names, and
+    the robot files that scenario names, must lie under the folder of the file that names them
+    unless ``allow_outside`` (:mod:`armlab.model.references`)."""
+    from armlab.model.references import is_under
     from armlab.scenarios import read_scenario_toml, scenario_path
 
     path = Path(path)
@@ -376,6 +380,10 @@ def load_sweep_file(path) -> SweepSpec:
         relative = path.parent / name
         scenario_file = scenario_path(relative if name.endswith(".toml") and not Path(name).is_absolute()
                                       else name)
+        if name.endswith(".toml") and not allow_outside and not is_under(scenario_file,
+                                                                         path.absolute().parent.resolve()):
+            raise SweepFileError(path, "scenario", f"the scenario file {name!r} lies outside the sweep "
+                                 "file's folder (allow_outside=True or --allow-outside reads it)")
         scenario_table = read_scenario_toml(scenario_file)
     except ScenarioFileError as error:
         raise SweepFileError(path, "scenario", str(error)) from None
@@ -441,7 +449,7 @@ def load_sweep_file(path) -> SweepSpec:
                      seed=seed, draws=draws, chunk_size=chunk_size, fixed=fixed, grid=grid, zipped=zipped,
                      random=random, derived=tuple(derived), plots=tuple(plots),
                      signals=signals, signals_every=every,
-                     cluster=tuple(cluster.items()))
+                     cluster=tuple(cluster.items()), allow_outside=allow_outside)
     _check_against_scenario(spec, path)
     return spec
 
@@ -500,7 +508,7 @@ def _check_against_scenario(spec: SweepSpec, path: Path) -> None:
         raise SweepFileError(path, "grid", "no runs (an axis is empty)")
     try:
         _, table = spec.table(0)
-        scenario = scenario_from_table(table, spec.scenario_file)
+        scenario = scenario_from_table(table, spec.scenario_file, allow_outside=spec.allow_outside)
     except ScenarioFileError as error:
         for key, label in where.items():
             if _is_field(key) and error.reason.startswith(("unknown key", "no such link")) and (
@@ -542,6 +550,7 @@ def sweep_path(name_or_path) -> Path:
     return path
 
 
-def load_sweep(name_or_path) -> SweepSpec:
-    """A bundled sweep by name or a sweep file, read and checked."""
-    return load_sweep_file(sweep_path(name_or_path))
+def load_sweep(name_or_path, *, allow_outside: bool = False) -> SweepSpec:
+    """A bundled sweep by name or a sweep file, read and checked (``allow_outside`` as for
+    :func:`load_sweep_file`)."""
+    return load_sweep_file(sweep_path(name_or_path), allow_outside=allow_outside)

@@ -148,7 +148,8 @@ def experiment_from_scenario(scenario, t_final: float | None = None, *, quick: b
     ``t_final`` [s] when given (shorter than the file's own t_final), else for its full length;
     ``quick`` draws its main scopes alone."""
     if isinstance(scenario, str):
-        scenario = load_scenario(scenario)
+        # A name, or a file the report chose or wrote (a course names the user's robot file).
+        scenario = load_scenario(scenario, allow_outside=True)
     full = float(scenario.simulation["t_final"])
     short = t_final if t_final is not None and t_final < full else None
 
@@ -203,4 +204,6 @@ def _course(robot: Robot, folder) -> list:
     reference, tip = robot_reference(robot)
     folder = Path(folder) if folder is not None else Path(tempfile.mkdtemp(prefix="armlab-course-"))
     paths, _ = write_course(robot, reference, folder, tip=tip)
-    return [load_scenario_file(path) for path in paths]
+    # Written here, naming the robot the user named (by its absolute path when it is a file):
+    # that robot file may lie outside the course folder.
+    return [load_scenario_file(path, allow_outside=True) for path in paths]

@@ -68,7 +68,8 @@ def _theory_scopes(exp: Experiment) -> list:
         return []
     from armlab.scenarios import load_scenario
 
-    law = load_scenario(exp.scenario).controller
+    # The file this report loaded or generated already (a course names the user's robot file).
+    law = load_scenario(exp.scenario, allow_outside=True).controller
     scope = impedance_scope(exp.result, law.mass, law.reference)
     return [] if scope is None else [scope]
 
