@@ -21,18 +21,14 @@ def test_every_exception_class_is_defined_in_errors_py():
                     getattr(base, "id", getattr(base, "attr", "")).endswith(("Error", "Exception"))
                     for base in node.bases):
                 elsewhere.append(f"{path.relative_to(SRC)}:{node.lineno} {node.name}")
-    # Internal control flow, never raised to a user: traced.py's TracedBranch (the tracer's) and
-    # budget.py's BudgetExceeded (a derivation step out of time, caught by the step's caller).
-    assert elsewhere == ["specialise/traced.py:" + str(_class_line("specialise/traced.py", "TracedBranch"))
-                         + " TracedBranch",
-                         "symbolic/budget.py:" + str(_class_line("symbolic/budget.py", "BudgetExceeded"))
-                         + " BudgetExceeded"]
+    # traced.py's TracedBranch is internal control flow of the tracer, never raised to a user.
+    assert elsewhere == ["specialise/traced.py:" + str(_traced_branch_line()) + " TracedBranch"]
 
 
-def _class_line(relative, name):
-    tree = ast.parse((SRC / relative).read_text(encoding="utf-8"))
+def _traced_branch_line():
+    tree = ast.parse((SRC / "specialise" / "traced.py").read_text(encoding="utf-8"))
     return next(node.lineno for node in ast.walk(tree)
-                if isinstance(node, ast.ClassDef) and node.name == name)
+                if isinstance(node, ast.ClassDef) and node.name == "TracedBranch")
 
 
 @pytest.mark.parametrize("name", [name for name, value in vars(errors).items()
