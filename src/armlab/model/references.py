@@ -11,7 +11,7 @@ name is checked like the robot file itself:
 
   An absolute path, a ``..`` that climbs out of F, a ``file://`` URL or a ``package://`` name
   that resolves outside F is refused unless the caller widens the rule (``allow_outside=True``
-  of :func:`armlab.load_urdf`, :func:`armlab.load_mjcf`, :func:`armlab.load_robot`; the
+  of :func:`armlab.load_urdf`, :func:`armlab.model.mjcf_io.load_mjcf`, :func:`armlab.load_robot`; the
   command line's ``--allow-outside``).  The arms of installed description packages
   (:mod:`armlab.robots.zoo`) are read with the rule widened: their meshes sit in sibling
   folders of the package, which the user installed;
