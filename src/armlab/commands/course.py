@@ -21,8 +21,10 @@ def register(subparsers) -> None:
 
 
 def run(args) -> int:
+    from pathlib import Path
 
     from armlab.course import write_course
+    from armlab.model.references import is_under
     from armlab.robots import load_robot, robot_reference
 
     robot = load_robot(args.robot, tip=args.tip, allow_outside=args.allow_outside)
@@ -32,10 +34,6 @@ def run(args) -> int:
         print(path)
     for reason in skipped:
         print(f"not generated: {reason}")
-    from pathlib import Path
-
-    from armlab.model.references import is_under
-
     if Path(reference).suffix and not is_under(reference, Path(args.out).resolve()):
         # A scenario may name robot files under its own folder only, unless told otherwise.
         print(f"note: the scenarios name {reference}, outside {args.out}: run them with "

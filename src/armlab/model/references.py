@@ -59,7 +59,7 @@ def problem(candidate, limit: int) -> str | None:
     when it can, or when it does not exist (its reader then says so)."""
     try:
         info = os.stat(candidate)
-    except FileNotFoundError:
+    except (FileNotFoundError, NotADirectoryError):   # nothing there: the reader says so
         return None
     except (OSError, ValueError) as error:
         return f"cannot be read ({getattr(error, 'strerror', None) or error})"
