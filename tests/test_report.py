@@ -8,7 +8,6 @@ import io
 import re
 import shutil
 import socket
-import subprocess
 import threading
 from html.parser import HTMLParser
 
@@ -16,6 +15,7 @@ import numpy as np
 import pytest
 
 from armlab.viz.report import assignment_number, build_report
+from processes import run_bounded
 
 BROWSERS = ("chromium", "chromium-browser", "google-chrome")
 CHROMIUM = next((shutil.which(n) for n in BROWSERS if shutil.which(n)), None)
@@ -191,7 +191,7 @@ def _run_chromium(tmp_path, page, extra, proxy_port):
     command = [CHROMIUM, *CHROMIUM_FLAGS, f"--user-data-dir={profile}",
                f"--proxy-server=http://127.0.0.1:{proxy_port}", "--proxy-bypass-list=<-loopback>",
                *extra, page.as_uri()]
-    return subprocess.run(command, capture_output=True, text=True, timeout=120)
+    return run_bounded(command, timeout=120)
 
 
 def _hosts(requests: list[str]) -> set[str]:
@@ -337,10 +337,9 @@ def _screenshot(browser: str, tmp_path, page, width: int, height: int):
             pytest.skip("firefox not installed: apt-get install -y firefox-esr to run this check")
         profile = tmp_path / "firefox-profile"
         profile.mkdir()
-        shot = subprocess.run([FIREFOX, "--headless", "--profile", str(profile),
-                               f"--window-size={width},{height}", "--screenshot", str(shot_path),
-                               page.as_uri()],
-                              capture_output=True, text=True, timeout=180)
+        shot = run_bounded([FIREFOX, "--headless", "--profile", str(profile),
+                            f"--window-size={width},{height}", "--screenshot", str(shot_path),
+                            page.as_uri()], timeout=180)
     assert shot.returncode == 0 and shot_path.exists(), shot.stderr[-2000:]
     from PIL import Image
 
@@ -483,6 +482,12 @@ def test_a_report_worker_leaves_when_its_parent_is_killed(tmp_path):
               "threading.Event().wait()\n")
     parent = subprocess.Popen([sys.executable, "-c", script], stdout=subprocess.PIPE, text=True,
                               env={**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)})
+    import select
+
+    # The parent prints its worker's pid within seconds; never wait on it without an end.
+    if not select.select([parent.stdout], [], [], 300)[0]:
+        parent.kill()
+        raise AssertionError("the report's pool started no worker within 300 s")
     worker = int(parent.stdout.readline())
     parent.send_signal(signal.SIGKILL)
     parent.wait()

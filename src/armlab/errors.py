@@ -36,9 +36,6 @@ Each class is also the builtin a Python programmer would catch for the same faul
     SimulationInterrupted (KeyboardInterrupt)  Ctrl-C during a run; ``.result`` keeps the data
                                            (not an ArmlabError: ``except Exception`` must not stop
                                            a Ctrl-C)
-    BudgetExceeded (BaseException)         a symbolic step's time budget ran out; caught by the
-                                           budget that raised it (``armlab.symbolic.budget``),
-                                           never shown to a user
     CacheWarning (UserWarning)             a damaged or unusable cache entry was discarded
 """
 
@@ -227,18 +224,6 @@ class SimulationInterrupted(KeyboardInterrupt):
     def __init__(self, message: str, result):
         super().__init__(message)
         self.result = result
-
-
-class BudgetExceeded(BaseException):
-    """A :class:`armlab.symbolic.budget.Budget`'s seconds ran out.  Each budget raises its own
-    subclass (Python raises an asynchronous exception from its class), whose ``budget`` names
-    the budget.  A BaseException, so that SymPy's ``except Exception`` does not swallow it."""
-
-    budget = None
-
-    def __str__(self) -> str:
-        budget = self.budget
-        return "" if budget is None else f"{budget.what} exceeded its budget of {budget.seconds:g} s"
 
 
 class CacheWarning(UserWarning):

@@ -14,7 +14,7 @@ import sympy as sp
 
 from armlab.model.robot import Robot
 from armlab.symbolic import energy, kinematics, lagrange, newton_euler, operational
-from armlab.symbolic.budget import Budget
+from armlab.symbolic.budget import bounded_parts, call_within
 from armlab.symbolic.compact import compact_dynamics
 from armlab.symbolic.model import SymbolicRobot, symbolic_robot
 from armlab.symbolic.simplify import compact_matrix, count_ops
@@ -143,12 +143,22 @@ def _inverse_kinematics(s: Section, sr: SymbolicRobot, frame: str) -> list[dict]
     """The closed-form position IK within :data:`IK_SHARE` of the section's budget (SymPy's
     polynomial solver is the step whose cost explodes first); None, with a note, past it."""
     seconds = None if s.budget is None else max(IK_SHARE * s.budget, 0.1)
-    with Budget(seconds, "closed-form inverse kinematics") as budget:
-        return kinematics.position_inverse_kinematics(sr, frame)
+    finished, solutions = call_within(seconds, kinematics.position_inverse_kinematics, sr, frame,
+                                      load=load_unevaluated)
+    if finished:
+        return solutions
     s.notes.append(f"Closed-form inverse kinematics skipped: SymPy's polynomial solver did not finish "
                    f"within {seconds:.3g} s (its share of the A1 budget); use armlab's numeric IK.")
-    assert budget.exceeded
     return None
+
+
+def load_unevaluated(data: bytes):
+    """Unpickle SymPy objects as they were built: a pickled ``Mul(-1, Add(…))`` left unevaluated
+    on purpose (to print −(…)) would otherwise come back evaluated, its sign distributed."""
+    import pickle
+
+    with sp.evaluate(False):
+        return pickle.loads(data)
 
 
 IK_SHARE = 0.4
@@ -330,15 +340,50 @@ def derive(robot: Robot | SymbolicRobot, *, frame: str = "0", numeric: bool = Fa
     sr = robot if isinstance(robot, SymbolicRobot) else symbolic_robot(robot, numeric=numeric)
     builders = {"A1": lambda s: _a1(s, sr, frame), "A2": lambda s: _a2(s, sr), "A3": lambda s: _a3(s, sr),
                 "A4": lambda s: _a4(s, sr), "A5": lambda s: _a5(s, sr, frame)}
-    sections = []
-    for key in [only] if only else list(ASSIGNMENTS):
-        s = Section(key, TITLES[key], budget=budget)
-        with Budget(budget, key) as spent:
-            builders[key](s)
-        if spent.exceeded:
+    keys = [only] if only else list(ASSIGNMENTS)
+    sections = {key: Section(key, TITLES[key], budget=budget) for key in keys}
+
+    def build(key, emit):
+        """In the worker: the section's results and notes, sent one by one as they come."""
+        streamed = _Streamed(key, TITLES[key], notes=_Notes(emit), budget=budget)
+        streamed.emit = emit
+        builders[key](streamed)
+
+    for key, kind, value in bounded_parts(keys, build, budget, load=load_unevaluated):
+        s = sections[key]
+        if kind == "item":
+            label, expr, tex, note = value
+            if note is None:
+                s.items.append(Item(label, expr, tex))
+            else:
+                s.notes.append(note)
+        elif kind == "exceeded":
             s.complete = False
             s.notes.append(f"{key} stopped after its budget of {budget:g} s: {len(s.items)} results derived, "
                            f"the rest skipped (SymPy's expressions for this arm's parameters grow too "
                            f"large); every numeric result of the report is computed without them.")
-        sections.append(s)
-    return sections
+    return list(sections.values())
+
+
+class _Notes(list):
+    """A section's notes that are also sent on as they are written."""
+
+    def __init__(self, emit):
+        super().__init__()
+        self.emit = emit
+
+    def append(self, note: str) -> None:
+        super().append(note)
+        self.emit((None, None, None, note))
+
+
+class _Streamed(Section):
+    """A section being derived in a budget's worker: each result and note is sent to the
+    caller as soon as it exists, so that a section stopped by its budget keeps them."""
+
+    emit = None
+
+    def add(self, label: str, expr, tex: str) -> None:
+        super().add(label, expr, tex)
+        item = self.items[-1]
+        self.emit((item.label, item.expr, item.tex, None))
