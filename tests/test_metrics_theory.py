@@ -251,8 +251,8 @@ def test_the_closed_loop_statics_is_the_minimum_of_the_prp_potential():
     uy, uz, c = ey @ u, ez @ u, np.cos(theta)
     r = ((10 * uy * (p_d @ ey) + 20 * uz * (p_d @ ez) + 1e4 * 0.2 * c)
          / (10 * uy**2 + 20 * uz**2 + 1e4 * c**2))
-    U = (0.5 * (10 * (r * uy - p_d @ ey) ** 2 + 20 * (r * uz - p_d @ ez) ** 2) + 0.5 * 1e4 * (r * c - 0.2) ** 2
-         + 0.5 * 50 * (theta - psi) ** 2 + 0.5 * 10 * theta**2)
+    U = (0.5 * (10 * (r * uy - p_d @ ey) ** 2 + 20 * (r * uz - p_d @ ez) ** 2)
+         + 0.5 * 1e4 * (r * c - 0.2) ** 2 + 0.5 * 50 * (theta - psi) ** 2 + 0.5 * 10 * theta**2)
     k = int(np.argmin(U))
     statics = compliance_statics(scenario.plant, scenario.controller, scenario.environment,
                                  scenario.simulation["q0"])
