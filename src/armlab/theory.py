@@ -25,6 +25,8 @@ it (the report prints both side by side, :func:`predictions`).
 * Force control with integral action (A14, A15) reaches f_e = f_d along Image(K): a zero final
   force error, when f_d lies in Image(K) (otherwise the integral of the rest grows without
   bound and nothing settles).                                                                (T4)
+  Admittance control (A13, C13) on a position task rests on (T3) with K_P = K_Pt: the inner
+  loop puts Σ_e on Σ_t, and the admittance rests where K_Pt z̃ = h_e^d.
 * Impedance control (A12, law C12) with an exact model imposes, on the position task in Σ_d,
   M_d x̃̈ + K_D x̃̇ + K_P x̃ = h_A, h_A = R_dᵀ f_e: the residual of that equation along a run
   is zero (measured by finite differences of the logged x̃, so O(dt²)).                    (T5)
@@ -238,10 +240,40 @@ def _compliance_predictions(scenario) -> list[Prediction]:
                        _FinalMean("h_e", (0, 1, 2)), tolerance=FORCE_TOLERANCE)]
 
 
+def _admittance_predictions(scenario) -> list[Prediction]:
+    """Rest position and contact force of an admittance run on a position task (T3 with K_Pt).
+
+    At rest the inner loop has brought Σ_e onto Σ_t (an exact model, a square position task)
+    and the admittance rests where K_Pt z̃ = h_e^d; on positions, z̃ = R_dᵀ(p_d − p_e), so
+    K_Pt R_dᵀ(p_d − p_e) = R_dᵀ f_e — (T3) with K_P = R_d K_Pt R_dᵀ, whatever the orientation,
+    as long as the environment's force depends on position alone."""
+    from armlab.simulation.environment import PlanarWall
+
+    controller, env = scenario.controller, scenario.environment
+    if len(controller.reference.times) != 1 or tuple(controller.task) != (0, 1, 2):
+        return []
+    if isinstance(env, PlanarWall):
+        K, x_r = env.stiffness * np.outer(env.normal, env.normal), env.point
+    else:
+        if np.any(env.stiffness[:3, 3:]):
+            return []   # the force would depend on the orientation too
+        K, x_r = env.rest_rotation @ env.stiffness[:3, :3] @ env.rest_rotation.T, env.rest_position
+    R_d, p_d = controller.reference.rotations[-1], controller.reference.positions[-1]
+    kp_t = R_d @ gain_matrix(controller.kp_t, 6, "kp_t")[:3, :3] @ R_d.T
+    x_e, f = compliance_equilibrium(kp_t, K, p_d, x_r)
+    if isinstance(env, PlanarWall) and env.normal @ (env.point - x_e) < 0.0:
+        x_e, f = np.asarray(p_d, dtype=float), np.zeros(3)   # x_d in free space: no contact
+    return [Prediction("equilibrium p_e (T3, K_P = K_Pt)", ("x", "y", "z"), x_e, ("m",) * 3, _FinalMean("p"),
+                       tolerance=POSITION_TOLERANCE),
+            Prediction("equilibrium contact force f_e (T3, K_P = K_Pt)", ("fx", "fy", "fz"), f, ("N",) * 3,
+                       _FinalMean("h_e", (0, 1, 2)), tolerance=FORCE_TOLERANCE)]
+
+
 def predictions(scenario) -> list[Prediction]:
     """The predictions of the module docstring that ``scenario`` (an
     :class:`~armlab.scenarios.Scenario`) has a theory for; empty when none applies."""
     from armlab.control.interaction import (
+        AdmittanceControl,
         ComplianceControl,
         ForceControl,
         ImpedanceControl,
@@ -263,6 +295,8 @@ def predictions(scenario) -> list[Prediction]:
                            tolerance=JOINT_TOLERANCE)]
     if isinstance(controller, ComplianceControl) and isinstance(scenario.environment, (Spring, PlanarWall)):
         return _compliance_predictions(scenario)
+    if isinstance(controller, AdmittanceControl) and isinstance(scenario.environment, (Spring, PlanarWall)):
+        return _admittance_predictions(scenario)
     if isinstance(controller, (ForceControl, ParallelForcePosition)) and np.any(np.asarray(controller.ki)):
         projector = image_projector(scenario.environment)
         f_d = np.asarray(controller.force.final, dtype=float)
