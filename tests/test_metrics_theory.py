@@ -173,6 +173,46 @@ def test_option_3_gains_against_the_gravity_gradient_bound():
     assert np.linalg.eigvalsh(seed.kp).min() < alpha < np.linalg.eigvalsh(improved.kp).min()
 
 
+def _option_3_equilibria(kp2, kp3=10.0, count=20_001):
+    """θ2 of the rest points of PD + g(q_des) on the PRP: K_P q̃ + g(q_des) − g(q) = 0, with
+    d3 solved from the third row (g is affine in d3 at fixed θ2, g_1 = 0), over θ2 ∈ [−4π, 4π];
+    beyond, K_P2 |θ̃2| exceeds any |g_2| the rows allow."""
+    from armlab.dynamics import gravity_torque
+
+    robot = armlab.load_robot("prp")
+    q_des = np.array([0.1, np.pi / 3, 0.05])
+    g_des = gravity_torque(robot, q_des)
+    theta = np.linspace(-4 * np.pi, 4 * np.pi, count)
+    residual = np.empty(count)
+    for i, th in enumerate(theta):
+        a, b = gravity_torque(robot, np.array([0.1, th, 0.0])), gravity_torque(robot, np.array([0.1, th, 1.0]))
+        d3 = (kp3 * q_des[2] + g_des[2] - a[2]) / (kp3 + b[2] - a[2])
+        residual[i] = kp2 * (q_des[1] - th) + g_des[1] - (a[1] + (b[1] - a[1]) * d3)
+    return theta[np.flatnonzero(np.diff(np.sign(residual)) != 0)]
+
+
+def test_the_seeds_option_3_has_a_single_equilibrium():
+    """K_P2 = 0.5 < α: Tomei's condition fails, yet q_des is the only rest point (a minimum of
+    the closed-loop potential: K_P + ∂g/∂q positive definite), so the convergence is global and
+    the run from (0, −3, 0.3) reaches q_des; three rest points appear at K_P2 = 0.39."""
+    from armlab.dynamics import gravity_torque
+
+    (only,) = _option_3_equilibria(0.5)
+    assert only == pytest.approx(np.pi / 3, abs=1e-3)
+    assert len(_option_3_equilibria(0.39)) == 3 and len(_option_3_equilibria(0.40)) == 1
+    robot, q_des = armlab.load_robot("prp"), np.array([0.1, np.pi / 3, 0.05])
+    gradient = np.column_stack([(gravity_torque(robot, q_des + e) - gravity_torque(robot, q_des - e)) / 2e-6
+                                for e in np.eye(3) * 1e-6])
+    hessian = np.diag([25.0, 0.5, 10.0]) + gradient
+    assert np.linalg.eigvalsh(0.5 * (hessian + hessian.T)).min() > 0.1
+    scenario = load_scenario("a6_pd_desired_far")
+    assert np.array_equal(scenario.controller.kp, load_scenario("a6_pd_desired").controller.kp)
+    run = scenario.run()
+    np.testing.assert_allclose(run.q[-1], q_des, atol=1e-4)
+    assert "globally asymptotically stable" in scenario.description
+    assert "local" not in load_scenario("a6_pd_desired").description.replace("globally", "")
+
+
 def test_impedance_residual_vanishes_along_the_run():
     """(T5) holds along the whole A12 regulation run: the residual is the finite-difference
     error, small against the terms it balances."""
