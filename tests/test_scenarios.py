@@ -28,8 +28,9 @@ INTERACTION = [n for n in NAMES if scenario_path(n).parent.name == "interaction"
 
 
 def test_every_seed_experiment_has_a_scenario():
-    # The seed's seven, option 3 with the gain condition of its proof met, and one with joint stops.
-    assert len([n for n in NAMES if n.startswith("a6_")]) == 9
+    # The seed's seven, option 3 with the gain condition of its proof met and from a far start,
+    # and one with joint stops.
+    assert len([n for n in NAMES if n.startswith("a6_")]) == 10
     assert {"a7_id_via_points", "a7_id_mismatch", "a7_id_mismatch_whole_model",
             "a7_id_high_gain_saturated"} <= set(NAMES)
     assert {"a8_case1_sine", "a8_case2_square", "a8_case1_wrong_plant1",

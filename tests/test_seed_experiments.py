@@ -45,6 +45,29 @@ def test_a10_random_goals_fail_near_the_singular_axis():
     assert error[-1] < 1e-6                               # goal 2 is reached
 
 
+def test_a10_goal_2_lies_inside_the_limits_and_saturation_takes_the_other_branch():
+    """Goal 2 at (−0.05, 0.146): the PRP reaches it at radius ρ = √(0.05² + 0.146²) along
+    θ2 = atan2(x, −y), d3 = 0.2 − ρ = 0.0457 m (inside [−0.15, 0.35]), or at −ρ on the other
+    branch, θ2 + π, d3 = 0.2 + ρ = 0.354 m (past the limit).  Ideal actuators end on the first;
+    the saturated run on the second, its orientation (not in the task) π away."""
+    import dataclasses
+
+    rho = np.hypot(0.05, 0.146)
+    first = np.array([np.arctan2(-0.05, -0.146), 0.2 - rho])
+    second = np.array([np.arctan2(0.05, 0.146), 0.2 + rho])
+    scenario = load_scenario("a10_id_random_goals")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        saturated = scenario.run()
+        ideal = dataclasses.replace(scenario, simulation={**scenario.simulation, "torque_limit": None}).run()
+    np.testing.assert_allclose(ideal.q[-1, 1:], first, atol=1e-6)
+    np.testing.assert_allclose(saturated.q[-1, 1:], second, atol=1e-6)
+    assert abs(abs(saturated.signals["x_err"][-1, 3]) - np.pi) < 1e-6
+    assert abs(ideal.signals["x_err"][-1, 3]) < 1e-6
+    text = scenario.description
+    assert "0.0457" in text and "armlab's choice" in text and "hypothesis" in text
+
+
 def test_a8_literal_seed_plant_diverges_and_faster_gains_converge():
     literal = load_scenario("a8_case1_wrong_plant1_seed_form").run(on_divergence="return")
     assert literal.status == "diverged" and 1.5 < literal.t[-1] < 2.5

@@ -29,7 +29,7 @@ HIDDEN_KEYS = {"title", "assignment", "description"}
 # The seed's order within each assignment (its option 1 before option 3, free motion before
 # contact): the report lists an assignment's experiments so, then any others by name.
 SEED_ORDER = (
-    "a6_pd_online", "a6_pd_none", "a6_pd_desired", "a6_pd_desired_global", "a6_pd_sine", "a6_pd_ramp",
+    "a6_pd_online", "a6_pd_none", "a6_pd_desired", "a6_pd_desired_global", "a6_pd_desired_far", "a6_pd_sine", "a6_pd_ramp",
     "a6_pd_sine_disturbance", "a6_pd_sine_disturbance_stop", "a6_pd_ramp_disturbance",
     "a7_id_via_points", "a7_id_regulation", "a7_id_mismatch", "a7_id_mismatch_regulation",
     "a7_id_mismatch_whole_model", "a7_id_mismatch_whole_model_regulation",
@@ -38,9 +38,11 @@ SEED_ORDER = (
     "a8_case2_square", "a8_case2_square_faster", "a8_case2_wrong_plant1", "a8_case2_wrong_plant2",
     "a09_pd_goal", "a09_pd_goal_rotation", "a09_pd_near_singular",
     "a10_id_regulation", "a10_id_via_poses", "a10_id_random_goals", "a10_id_rotation_damped",
-    "a11_compliance", "a11_compliance_diagonal",
-    "a12_impedance_regulation", "a12_impedance_tracking",
-    "a13_admittance_regulation", "a13_admittance_tracking",
+    "a11_compliance", "a11_compliance_push", "a11_compliance_diagonal", "a11_compliance_diagonal_push",
+    "a12_impedance_regulation", "a12_impedance_regulation_push", "a12_impedance_regulation_damped",
+    "a12_impedance_tracking", "a12_impedance_tracking_push",
+    "a13_admittance_regulation", "a13_admittance_regulation_push", "a13_admittance_regulation_tuned",
+    "a13_admittance_tracking", "a13_admittance_tracking_push",
     "a14_force_inner_position", "a14_force_inner_position_stop", "a14_force_inner_position_y_only",
     "a14_force_inner_velocity", "a14_force_inner_velocity_z",
     "a15_parallel_free", "a15_parallel_contact", "a15_parallel_contact_wall", "a15_parallel_outside_image",
