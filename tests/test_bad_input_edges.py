@@ -105,3 +105,19 @@ def test_a_run_that_logs_a_non_finite_value_has_diverged():
     finite = FunctionController(model=robot, law=_inf_after(1.0))
     ok = armlab.simulate(robot, finite, q0=np.zeros(2), t_final=0.1, dt=1e-3, torque_limit=1.0)
     assert ok.status == "ok"
+
+
+@pytest.mark.parametrize("address, problem", [
+    ("tcp://127.0.0.1:8786", None), ("localhost:8786", None), ("[::1]:8786", None),
+    ("ws://scheduler.example.org:1", None), ("junk", "no port"), ("http://h:1", "unsupported scheme"),
+    ("[::1", "closing bracket"), ("[::g]:1", "not an IPv6 address"), ("::1:8786", "in brackets"),
+    ("h_x:1", "not a host name"), ("h:0", "not an integer in 1…65535"), ("h:65536", "1…65535"),
+    ("h:１", "1…65535"), ("ucx://h:1", "unsupported scheme"), ("inproc://h:1", "unsupported scheme")])
+def test_scheduler_addresses_are_checked_before_dask_sees_them(address, problem):
+    """Dask's client on a malformed address can leave its event-loop thread behind (the next
+    client of the process then waits for a loop that never starts), so the form is checked
+    first; a well-formed address is left to Dask to connect to."""
+    from armlab.sweep.address import address_problem
+
+    found = address_problem(address)
+    assert (found is None) if problem is None else (problem in found), found

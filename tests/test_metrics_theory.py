@@ -185,7 +185,8 @@ def _option_3_equilibria(kp2, kp3=10.0, count=20_001):
     theta = np.linspace(-4 * np.pi, 4 * np.pi, count)
     residual = np.empty(count)
     for i, th in enumerate(theta):
-        a, b = gravity_torque(robot, np.array([0.1, th, 0.0])), gravity_torque(robot, np.array([0.1, th, 1.0]))
+        a = gravity_torque(robot, np.array([0.1, th, 0.0]))
+        b = gravity_torque(robot, np.array([0.1, th, 1.0]))
         d3 = (kp3 * q_des[2] + g_des[2] - a[2]) / (kp3 + b[2] - a[2])
         residual[i] = kp2 * (q_des[1] - th) + g_des[1] - (a[1] + (b[1] - a[1]) * d3)
     return theta[np.flatnonzero(np.diff(np.sign(residual)) != 0)]

@@ -32,6 +32,7 @@ import time
 from dataclasses import dataclass
 
 from armlab.errors import ArmlabError, SchedulerAddressError, SweepFileError
+from armlab.sweep.address import address_problem
 from armlab.sweep.metrics import METRIC_NAMES, measure
 from armlab.sweep.spec import SweepSpec, load_sweep
 from armlab.sweep.store import SweepStore, read_results
@@ -185,15 +186,20 @@ def _dask_client(scheduler, workers, source, from_file: bool):
         raise SweepFileError(source, "cluster", "a Dask executor needs dask.distributed "
                                                  "(pip install 'armlab[cluster]')") from None
     if scheduler:
+        # The address is checked before Dask sees it: a client Dask failed to make on a
+        # malformed address can leave its event-loop thread behind, and the next client of
+        # the process then waits for a loop that never starts.
+        problem = address_problem(scheduler)
         try:
-            return Client(scheduler, timeout="20s"), None
+            if problem is None:
+                return Client(scheduler, timeout="20s"), None
         except (ValueError, TypeError, ImportError, NotImplementedError, OSError) as error:
             # Dask reports these as plain exceptions of the address's parser or connector.
-            detail = " ".join(str(error).split()) or type(error).__name__
-            reason = f"cannot use the Dask scheduler {scheduler!r} ({detail})"
-            if from_file:
-                raise SweepFileError(source, "cluster.scheduler", reason) from None
-            raise SchedulerAddressError(reason) from None
+            problem = " ".join(str(error).split()) or type(error).__name__
+        reason = f"cannot use the Dask scheduler {scheduler!r}: {problem}"
+        if from_file:
+            raise SweepFileError(source, "cluster.scheduler", reason) from None
+        raise SchedulerAddressError(reason) from None
     import dask
 
     # Without the workers' statistical profiler (a stack sample of the task's thread every

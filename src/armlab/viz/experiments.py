@@ -29,7 +29,8 @@ HIDDEN_KEYS = {"title", "assignment", "description"}
 # The seed's order within each assignment (its option 1 before option 3, free motion before
 # contact): the report lists an assignment's experiments so, then any others by name.
 SEED_ORDER = (
-    "a6_pd_online", "a6_pd_none", "a6_pd_desired", "a6_pd_desired_global", "a6_pd_desired_far", "a6_pd_sine", "a6_pd_ramp",
+    "a6_pd_online", "a6_pd_none", "a6_pd_desired", "a6_pd_desired_global", "a6_pd_desired_far",
+    "a6_pd_sine", "a6_pd_ramp",
     "a6_pd_sine_disturbance", "a6_pd_sine_disturbance_stop", "a6_pd_ramp_disturbance",
     "a7_id_via_points", "a7_id_regulation", "a7_id_mismatch", "a7_id_mismatch_regulation",
     "a7_id_mismatch_whole_model", "a7_id_mismatch_whole_model_regulation",
