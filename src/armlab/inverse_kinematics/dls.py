@@ -112,10 +112,11 @@ singularity leaves 10⁻⁸–10⁻⁷ (Puma560 at |q5| ≈ 10⁻⁷), a spuriou
 
 
 def verified(robot: Robot, candidates, target, tol: float) -> list[np.ndarray]:
-    """The closed-form ``candidates`` that reach ``target`` within ``tol`` by forward
-    kinematics, each first refined by up to 20 undamped Gauss–Newton steps (:func:`dls_kernel`
-    without joint limits) when its residual is below :data:`POLISH_FROM`."""
-    tol = max(tol, 1e-12)
+    """The closed-form ``candidates`` that reach ``target`` within max(``tol``, 10⁻⁹) by
+    forward kinematics, each first refined towards ``tol`` by up to 20 undamped Gauss–Newton
+    steps (:func:`dls_kernel` without joint limits) when its residual is below
+    :data:`POLISH_FROM`."""
+    accept, tol = max(tol, 1e-9), max(tol, 1e-14)
     m = robot.arrays
     n = robot.n
     ws = kinematics_workspace(n)
@@ -130,7 +131,7 @@ def verified(robot: Robot, candidates, target, tol: float) -> list[np.ndarray]:
             continue
         dls_kernel(m, R_des, target.p, target.R is not None, -free, free, q, 20, tol, 1e-12,
                    ws, A, dq, q_try, e, e_try)
-        if np.linalg.norm(e[:3]) <= tol and np.linalg.norm(e[3:]) <= tol:
+        if np.linalg.norm(e[:3]) <= accept and np.linalg.norm(e[3:]) <= accept:
             out.append(q)
     return out
 
