@@ -151,6 +151,9 @@ def test_random_non_round_arms_derive_within_their_budget(n):
         assert elapsed < budget + SLACK, (key, elapsed)
         if not section.complete:
             assert f"{key} stopped after its budget of 0.5 s" in section.notes[-1]
+            last = section.items[-1].label if section.items else None
+            assert (f"after {last} ({len(section.items)} results)" if last
+                    else "before its first result (0 results)") in section.notes[-1]
             assert "\n" not in section.notes[-1]
 
 

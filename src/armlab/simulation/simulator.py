@@ -40,6 +40,11 @@ size it would need.  The adaptive integrator takes at most ``max_steps`` solver 
 simulated second, minutes of wall time each): it then stops, with status ``"stopped"`` and
 the data so far, as for a divergence.
 
+Step check, before an RK4 run with continuous control: the joint-space laws' closed loop is
+linearised at rest at q0 from their gains and B(q0) (``armlab.simulation.step_check``, S6);
+a ``dt`` beyond RK4's reach for its fastest mode gets a ``StepSizeWarning`` naming the
+largest stable step (the run would otherwise diverge in milliseconds as "joint limit exceeded").
+
 Ctrl-C during a run stops it after the current step: ``SimulationInterrupted`` (a
 ``KeyboardInterrupt``) carries the result so far, ``status == "interrupted"``.  The compiled
 RK4 loop runs in a worker thread and polls a flag the main thread sets (``armlab.simulation.loop``).

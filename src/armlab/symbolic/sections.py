@@ -359,9 +359,10 @@ def derive(robot: Robot | SymbolicRobot, *, frame: str = "0", numeric: bool = Fa
                 s.notes.append(note)
         elif kind == "exceeded":
             s.complete = False
-            s.notes.append(f"{key} stopped after its budget of {budget:g} s: {len(s.items)} results derived, "
-                           f"the rest skipped (SymPy's expressions for this arm's parameters grow too "
-                           f"large); every numeric result of the report is computed without them.")
+            where = f"after {s.items[-1].label}" if s.items else "before its first result"
+            s.notes.append(f"{key} stopped after its budget of {budget:g} s, {where} ({len(s.items)} "
+                           f"results): the rest of {key} is skipped, SymPy's expressions for this arm's "
+                           f"parameters grow too large; every numeric result is computed without them.")
     return list(sections.values())
 
 
