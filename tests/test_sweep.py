@@ -354,6 +354,18 @@ def SimulationResult_like(**fields):
     return SimpleNamespace(**fields)
 
 
+def test_plot_of_a_sweep_whose_every_run_is_invalid_is_a_note_not_an_error(tmp_path, capsys):
+    path = write(tmp_path, 'scenario = "a7_id_high_gain"\n[set]\n"simulation.t_final" = 0.01\n'
+                           '"simulation.max_steps" = "x"\n')
+    out = tmp_path / "out"
+    assert main(["sweep", str(path), "--out", str(out), "--plot", "--quiet"]) == 0
+    captured = capsys.readouterr()
+    assert "(1 invalid)" in captured.out and "internal error" not in captured.err
+    last = captured.err.strip().splitlines()[-1]
+    assert last == "armlab sweep: note: no plots: no run of sweep gave a metric"
+    assert not list((out / "plots").glob("*.png"))
+
+
 def test_settling_time_of_a_first_order_decay():
     # e = e^{-t/τ}: |e − e_∞| ≤ 2 % of its peak from t = τ ln 50 on (e_∞ ≈ 0 after 40 τ)
     tau_c, h = 0.2, 1e-4

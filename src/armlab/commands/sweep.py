@@ -63,6 +63,9 @@ def run(args) -> int:
     if args.plot:
         from armlab.viz.sweeps import plot_sweep
 
-        for path in plot_sweep(spec, out):
+        paths = plot_sweep(spec, out)
+        for path in paths:
             print(f"wrote {path}")
+        if not paths:
+            print(f"armlab sweep: note: no plots: no run of {spec.name} gave a metric", file=sys.stderr)
     return 0

@@ -72,8 +72,11 @@ def check_plots(spec) -> list[dict]:
 
 def default_plots(spec, frame) -> list[dict]:
     """Plots for a sweep without ``[[plot]]``: the metrics that some run has, against the axes
-    (two finite numeric axes: heat maps; one: lines, one per value of a short other axis)."""
+    (two finite numeric axes: heat maps; one: lines, one per value of a short other axis); none
+    when no run has a metric."""
     metrics = [m for m in UNITS if m in frame and frame[m].notna().any() and m != "divergence_time"]
+    if not metrics:
+        return []  # no run gave a number (every run invalid): nothing to draw
     axes = [a for a in spec.grid + spec.zipped if len(a.values) > 1]
     numeric = [a.key for a in axes if all(isinstance(v, float) and math.isfinite(v) for v in a.values)]
     if spec.random:
