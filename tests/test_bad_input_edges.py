@@ -61,6 +61,18 @@ def test_random_ranges_whose_draws_overflow_are_refused(tmp_path, capfd, draw, r
     assert "internal error" not in capfd.readouterr().err
 
 
+def test_a_linspace_whose_spacing_overflows_is_refused(tmp_path, capfd):
+    """numpy's linspace of [-1e308, 1e308] gives [nan, inf, 1e308] (last - first overflows):
+    refused naming the field, not three runs of which two are invalid and one diverged."""
+    path = tmp_path / "s.toml"
+    path.write_text(SWEEP.replace("values = [100, 200]", "linspace = [-1e308, 1e308, 3]").format(extra=""),
+                    encoding="utf-8")
+    with pytest.raises(SweepFileError, match=r"grid\.controller\.kp\.linspace: last - first = .* overflows"):
+        load_sweep_file(path)
+    assert main(["sweep", str(path), "--out", str(tmp_path / "out"), "--quiet"]) == BAD_INPUT
+    assert len(capfd.readouterr().err.strip().splitlines()) == 1
+
+
 def test_run_on_a_full_disk_says_nothing_of_success(tmp_path, capfd, monkeypatch):
     """The first write fails as on a full disk (ENOSPC): one error line, exit 2, and no "done"
     before it."""

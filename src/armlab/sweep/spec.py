@@ -307,7 +307,11 @@ def _grid_axis(key, spec, file, where) -> Axis:
         raise SweepFileError(file, f"{where}.{kind}", "first and last must be finite")
     if kind == "geomspace" and (first <= 0 or last <= 0):
         raise SweepFileError(file, f"{where}.{kind}", "first and last must be positive")
-    values = np.linspace(first, last, count) if kind == "linspace" else np.geomspace(first, last, count)
+    with np.errstate(over="ignore", invalid="ignore"):
+        values = np.linspace(first, last, count) if kind == "linspace" else np.geomspace(first, last, count)
+    if not np.all(np.isfinite(values)):
+        # last - first beyond the float range (±1.8e308): the spacing is not a number.
+        raise SweepFileError(file, f"{where}.{kind}", f"last - first = {last:g} - {first:g} overflows")
     return Axis(key, tuple(float(v) for v in values))
 
 
