@@ -19,6 +19,7 @@ A sweep file is TOML::
 
     [random]                         # seeded draws
     mismatch = { uniform = [-0.3, 0.3] }            # also normal = [μ, σ], log_uniform = [a, b]
+    delta = { normal = [0, 0.1], within = [-0.2, 0.2] }   # truncated; also lognormal = [μ, σ] of ln x
 
     [derived]                        # fields computed from the variables of each run
     "controller.kp" = "omega_n**2"
@@ -51,6 +52,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+from scipy.special import ndtr, ndtri
 
 from armlab.errors import ArmlabError, FieldPathError, ScenarioFileError, SweepFileError
 from armlab.model.toml_io import evaluate_expression
@@ -58,7 +60,10 @@ from armlab.model.toml_io import evaluate_expression
 TOP_KEYS = {"title", "description", "scenario", "seed", "runs", "chunk_size", "set", "grid", "zip", "signals",
             "random", "derived", "plot", "cluster"}
 GRID_KINDS = ("values", "linspace", "geomspace")
-RANDOM_KINDS = ("uniform", "normal", "log_uniform")
+RANDOM_KINDS = ("uniform", "normal", "log_uniform", "lognormal")
+# A truncation's interval must hold at least this probability of its distribution: below it the
+# inverse CDF of the draw has no digits left (and the file has surely a typo).
+MIN_TRUNCATED_MASS = 1e-9
 _NAME = r"[A-Za-z_][A-Za-z0-9_]*"
 _PATH = re.compile(rf"^{_NAME}(\[\d+\])*(\.{_NAME}(\[\d+\])*)*$")
 _SEGMENT = re.compile(rf"({_NAME})((?:\[\d+\])*)")
@@ -76,6 +81,7 @@ class Axis:
     values: tuple = ()
     kind: str = "values"
     bounds: tuple[float, float] = (0.0, 0.0)
+    within: tuple[float, float] | None = None   # truncation [low, high] of a normal or lognormal
 
     @property
     def is_field(self) -> bool:
@@ -131,7 +137,7 @@ class SweepSpec:
     def fingerprint(self) -> str:
         """A digest of everything that decides the runs and their chunks (resume checks it)."""
         text = json.dumps([self.scenario_table, self.seed, self.draws, self.chunk_size, self.fixed,
-                           [(a.key, a.values, a.kind, a.bounds)
+                           [(a.key, a.values, a.kind, a.bounds, *(() if a.within is None else (a.within,)))
                             for a in self.grid + self.zipped + self.random],
                            self.derived, [len(self.grid), len(self.zipped)], self.signals,
                            self.signals_every], sort_keys=True, default=str)
@@ -182,12 +188,39 @@ class SweepSpec:
 
 
 def draw_value(rng: np.random.Generator, axis: Axis) -> float:
+    """One draw of ``axis``'s distribution from ``rng``.
+
+    uniform [a, b]: a + (b − a) u;  normal [μ, σ]: μ + σ z;  log_uniform [a, b]: exp of a uniform
+    draw in [ln a, ln b];  lognormal [μ, σ]: exp(μ + σ z), μ and σ those of ln x.  Truncated to
+    ``within`` = [l, h] (normal, lognormal) by the inverse CDF, one uniform u per draw:
+
+        z = Φ⁻¹(Φ(α) + u (Φ(β) − Φ(α))),  α = (l − μ)/σ,  β = (h − μ)/σ      (ln l, ln h for lognormal)
+
+    exact (no rejection), so a truncated draw too depends on the seed and the run index only.
+    """
     a, b = axis.bounds
     if axis.kind == "uniform":
         return float(rng.uniform(a, b))
-    if axis.kind == "normal":
-        return float(rng.normal(a, b))
-    return float(np.exp(rng.uniform(np.log(a), np.log(b))))
+    if axis.kind == "log_uniform":
+        return float(np.exp(rng.uniform(np.log(a), np.log(b))))
+    if axis.within is None:
+        z = float(rng.normal(a, b))
+    else:
+        low, high = _standard_interval(axis)
+        z = a + b * float(ndtri(rng.uniform(ndtr(low), ndtr(high))))
+    x = float(np.exp(z)) if axis.kind == "lognormal" else z
+    if axis.within is not None:
+        x = min(max(x, axis.within[0]), axis.within[1])   # rounding must not leave [l, h]
+    return x
+
+
+def _standard_interval(axis: Axis) -> tuple[float, float]:
+    """The truncation ``within`` of a normal or lognormal axis in standard units (α, β)."""
+    (mu, sigma), (low, high) = axis.bounds, axis.within
+    if axis.kind == "lognormal":
+        with np.errstate(divide="ignore"):
+            low, high = float(np.log(low)), float(np.log(high))
+    return (low - mu) / sigma, (high - mu) / sigma
 
 
 def _is_field(key: str) -> bool:
@@ -324,11 +357,13 @@ def _evaluates(text: str) -> bool:
 
 
 def _random_axis(key, spec, file, where) -> Axis:
-    if not isinstance(spec, dict) or len(spec) != 1 or next(iter(spec)) not in RANDOM_KINDS:
+    kinds = [k for k in spec if k in RANDOM_KINDS] if isinstance(spec, dict) else []
+    others = [k for k in spec if k not in RANDOM_KINDS and k != "within"] if isinstance(spec, dict) else []
+    if len(kinds) != 1 or others:
         raise SweepFileError(file, where,
                              f"expected one of {{ {' | '.join(f'{k} = [a, b]' for k in RANDOM_KINDS)} }}"
-                              + _quoting_hint(spec))
-    kind, raw = next(iter(spec.items()))
+                             " (a normal or lognormal may add within = [low, high])" + _quoting_hint(spec))
+    kind, raw = kinds[0], spec[kinds[0]]
     if not isinstance(raw, list) or len(raw) != 2:
         raise SweepFileError(file, f"{where}.{kind}", "expected [a, b]")
     a, b = (_number(v, file, f"{where}.{kind}") for v in raw)
@@ -346,7 +381,34 @@ def _random_axis(key, spec, file, where) -> Axis:
         raise SweepFileError(file, f"{where}.{kind}", f"σ must be positive, got {b:g}")
     if kind == "log_uniform" and not 0 < a < b:
         raise SweepFileError(file, f"{where}.{kind}", f"expected 0 < a < b, got [{a:g}, {b:g}]")
-    return Axis(key, (), kind, (a, b))
+    if kind == "lognormal" and not (b > 0 and abs(a) + 40.0 * b < 700.0):
+        raise SweepFileError(file, f"{where}.{kind}", f"expected σ > 0 and exp(μ ± 40σ) within the range of "
+                                                      f"a float, got [{a:g}, {b:g}]")
+    if "within" not in spec:
+        return Axis(key, (), kind, (a, b))
+    return Axis(key, (), kind, (a, b), _truncation(Axis(key, (), kind, (a, b)), spec["within"], file,
+                                                   f"{where}.within"))
+
+
+def _truncation(axis: Axis, raw, file, where) -> tuple[float, float]:
+    """The checked ``within = [low, high]`` of a normal or lognormal ``axis``: low < high (either
+    may be ±inf; a lognormal's low ≥ 0), holding at least :data:`MIN_TRUNCATED_MASS` of it."""
+    if axis.kind not in ("normal", "lognormal"):
+        raise SweepFileError(file, where, f"only a normal or a lognormal is truncated (a {axis.kind}'s "
+                                          "own bounds say where it lies)")
+    if not isinstance(raw, list) or len(raw) != 2:
+        raise SweepFileError(file, where, "expected [low, high]")
+    low, high = (_number(v, file, where) for v in raw)
+    if math.isnan(low) or math.isnan(high) or not low < high:
+        raise SweepFileError(file, where, f"expected low < high, got [{low:g}, {high:g}]")
+    if axis.kind == "lognormal" and low < 0:
+        raise SweepFileError(file, where, f"a lognormal draw is positive: low must be ≥ 0, got {low:g}")
+    alpha, beta = _standard_interval(Axis(axis.key, (), axis.kind, axis.bounds, (low, high)))
+    mass = float(ndtr(beta) - ndtr(alpha))
+    if not mass >= MIN_TRUNCATED_MASS:
+        raise SweepFileError(file, where, f"[{low:g}, {high:g}] holds {mass:.2g} of the distribution's "
+                                          f"probability (at least {MIN_TRUNCATED_MASS:g} needed)")
+    return low, high
 
 
 def _table(data, name, file) -> dict:

@@ -6,7 +6,11 @@ A sweep file's ``[[plot]]`` tables choose them (``docs/sweeps.md``)::
     kind = "line"        x = "omega_n"  y = ["settling_time", "peak_torque"]  by = "simulation.torque_limit"
     kind = "heatmap"     x = "controller.kp"  y = "controller.kd"  metric = "overshoot"
     kind = "histogram"   y = ["rms_error"]
+    kind = "ecdf"        y = ["rms_error"]       (empirical CDF: the fraction of runs ≤ each value)
     kind = "scatter"     x = "mismatch"  y = ["rms_error"]
+
+A Monte Carlo sweep's page in the report (:func:`sweep_section`) also lists its worst runs
+(:func:`worst_runs`): the runs of largest error, with the values drawn for them.
 
 Without ``[[plot]]`` tables, :func:`default_plots` picks them from the sweep's axes.  Runs that
 diverged are drawn as red crosses (line, scatter) or hatched cells (heat maps, with the
@@ -29,7 +33,10 @@ from armlab.files import replacing  # noqa: E402
 from armlab.sweep.metrics import METRICS  # noqa: E402
 
 UNITS = dict(METRICS)
-KINDS = ("line", "heatmap", "histogram", "scatter")
+KINDS = ("line", "heatmap", "histogram", "ecdf", "scatter")
+# The metric a Monte Carlo sweep's worst runs are ranked by: the first of these the runs have.
+WORST_BY = ("rms_error", "max_error", "position_error", "force_error", "steady_state_error", "peak_torque")
+WORST_COUNT = 5
 KEYS = {"kind", "x", "y", "by", "metric", "logx", "logy", "title"}
 
 
@@ -51,7 +58,8 @@ def check_plots(spec) -> list[dict]:
         plot["y"] = [y] if isinstance(y, str) else y
         if not isinstance(plot["y"], list) or not plot["y"]:
             raise SweepFileError(spec.source, f"{where}.y", "expected a column name or an array of them")
-        needed = {"line": ("x",), "heatmap": ("x", "y", "metric"), "scatter": ("x",), "histogram": ()}[kind]
+        needed = {"line": ("x",), "heatmap": ("x", "y", "metric"), "scatter": ("x",), "histogram": (),
+                  "ecdf": ()}[kind]
         for key in needed:
             if key not in table:
                 raise SweepFileError(spec.source, f"{where}.{key}", "missing")
@@ -80,7 +88,7 @@ def default_plots(spec, frame) -> list[dict]:
     axes = [a for a in spec.grid + spec.zipped if len(a.values) > 1]
     numeric = [a.key for a in axes if all(isinstance(v, float) and math.isfinite(v) for v in a.values)]
     if spec.random:
-        plots = [{"kind": "histogram", "y": metrics[:4]}]
+        plots = [{"kind": "histogram", "y": metrics[:4]}, {"kind": "ecdf", "y": metrics[:4]}]
         plots += [{"kind": "scatter", "x": a.key, "y": metrics[:4]} for a in spec.random[:2]]
         return plots
     if len(numeric) >= 2:
@@ -214,6 +222,43 @@ def _histogram(spec, frame, plot):
     return fig
 
 
+def _ecdf(spec, frame, plot):
+    """F̂(x) = #{runs with value ≤ x} / #runs of each metric over the runs that are ok, a step
+    per run, its median and 95th percentile marked."""
+    metrics = plot["y"]
+    fig = _figure(len(metrics))
+    axes = fig.subplots(len(metrics), 1, squeeze=False)[:, 0]
+    ok = frame[frame["status"] == "ok"]
+    for ax, metric in zip(axes, metrics, strict=True):
+        values = np.sort(ok[metric].dropna().to_numpy())
+        if values.size:
+            ax.step(values, np.arange(1, values.size + 1) / values.size, where="post", color="tab:blue")
+            for q, style in ((0.5, "-"), (0.95, "--")):
+                ax.axvline(np.quantile(values, q), color="k", linestyle=style, linewidth=1,
+                           label=f"{int(q * 100)} %: {np.quantile(values, q):.3g}")
+            ax.legend(fontsize=8, loc="lower right")
+        ax.set_ylim(0.0, 1.02)
+        ax.grid(True, alpha=0.3)
+        ax.set_xlabel(_label(metric))
+        ax.set_ylabel("fraction of runs ≤")
+    fig.suptitle(_title(spec, frame), fontsize=9)
+    return fig
+
+
+def worst_runs(frame, parameters, count: int = WORST_COUNT):
+    """(metric, rows): the ``count`` runs that are ok with the largest value of the first metric
+    of :data:`WORST_BY` the table has, largest first, each row its run number, its
+    ``parameters`` (the drawn and derived values) and that metric; (None, []) when no run has
+    one.  Runs that diverged are worse still, and are counted in the run counts."""
+    ok = frame[frame["status"] == "ok"]
+    metric = next((m for m in WORST_BY if m in ok and ok[m].notna().any()), None)
+    if metric is None:
+        return None, []
+    top = ok[ok[metric].notna()].sort_values([metric, "run"], ascending=[False, True]).head(count)
+    return metric, [[int(row["run"]), *(row[p] for p in parameters), float(row[metric])]
+                    for _, row in top.iterrows()]
+
+
 def _scatter(spec, frame, plot):
     x, metrics = plot["x"], plot["y"]
     fig = _figure(len(metrics))
@@ -231,7 +276,7 @@ def _scatter(spec, frame, plot):
     return fig
 
 
-DRAW = {"line": _line, "heatmap": _heatmap, "histogram": _histogram, "scatter": _scatter}
+DRAW = {"line": _line, "heatmap": _heatmap, "histogram": _histogram, "ecdf": _ecdf, "scatter": _scatter}
 
 
 def plot_sweep(spec, folder) -> list[Path]:
@@ -293,9 +338,26 @@ def sweep_section(folder, index: int = 0) -> str:
                          str(len(values))])
     summary = html.table(["metric", "unit", "min", "median", "max", "runs"], rows, numeric={2, 3, 4, 5},
                          caption=f"{len(frame)} runs: " + ", ".join(f"{n} {s}" for s, n in counts.items()))
+    worst = ""
+    try:
+        spec = load_sweep_file(manifest.get("source", ""))
+    except (ArmlabError, OSError):
+        spec = None
+    if spec is not None and spec.random:
+        # Only the drawn columns: the fields derived from them follow and would widen the
+        # table past the page without telling more.
+        parameters = [axis.key for axis in spec.random if axis.key in frame]
+        metric, rows = worst_runs(frame, parameters)
+        if rows:
+            shown = [[str(r[0]), *(f"{v:.4g}" if isinstance(v, float) else str(v) for v in r[1:])]
+                     for r in rows]
+            worst = html.table(["run", *parameters, metric], shown, numeric=set(range(len(parameters) + 2)),
+                               caption=f"The {len(rows)} runs of largest {metric.replace('_', ' ')} "
+                                       "(of the runs that are ok) and the values drawn for them")
     figures = "".join(html.figure(html.png_data_uri(p.read_bytes()), p.stem, kind="scope",
                                   ident=f"sweep{index}-{k}") for k, p in enumerate(pngs))
     title = html.escape(manifest.get("title", folder.name))
     return (f'<section class="assignment" id="sweep{index}" data-sweep="{html.escape(folder.name)}">'
             f"<h2>Sweep — {title}</h2><p class=\"note\">{html.escape(manifest.get('source', ''))}; "
-            f"scenario {html.escape(manifest.get('scenario', ''))}</p>{summary}{note}{figures}</section>")
+            f"scenario {html.escape(manifest.get('scenario', ''))}</p>"
+            f"{summary}{worst}{note}{figures}</section>")
