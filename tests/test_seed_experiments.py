@@ -9,6 +9,7 @@ from __future__ import annotations
 import warnings
 
 import numpy as np
+import pytest
 
 from armlab.scenarios import load_scenario
 
@@ -88,3 +89,55 @@ def test_saturation_overshoot_needs_a_long_saturation():
     assert joint1_overshoot("a7_id_high_gain") == joint1_overshoot("a7_id_higher_gain") == 0.0
     assert joint1_overshoot("a7_id_high_gain_saturated") == 0.0
     assert joint1_overshoot("a7_id_higher_gain_saturated") > 10.0
+
+
+def test_a7_omega_60_saturation_caption_matches_the_run():
+    """The caption of the ω_n = 60 rad/s comparison (and the scenario's description) tells what
+    the saturated run does: joint 1 overshoots by about 18 %, crossing zero while its torque is
+    held at the braking limit, and joint 3 is at its limit for about the first 20 ms; it does not
+    say that saturation only delays the approach."""
+    import re
+
+    from armlab.viz.comparisons import COMPARISONS, comparison_scope, overshoot
+
+    comparison = next(c for c in COMPARISONS if c.runs[1] == "a7_id_higher_gain_saturated")
+    first, second = (load_scenario(name).run() for name in comparison.runs)
+    caption = comparison_scope(comparison, first, second).caption
+    e = second.signals["q_err"]
+    dt = float(second.t[1] - second.t[0])
+    at_limit = np.abs(second.tau) >= 20.0 * (1.0 - 1e-9)
+
+    # Overshoot per joint, unsaturated / saturated.
+    stated = {label: (float(a), float(b)) for label, a, b in
+              re.findall(r"(d1|θ2|d3) ([\d.]+) % / ([\d.]+) %", caption)}
+    assert set(stated) == {"d1", "θ2", "d3"}
+    for k, label in enumerate(("d1", "θ2", "d3")):
+        assert stated[label][0] == pytest.approx(overshoot(first.signals["q_err"][:, k]), abs=0.05)
+        assert stated[label][1] == pytest.approx(overshoot(e[:, k]), abs=0.05)
+    assert overshoot(e[:, 0]) == pytest.approx(18.1, abs=0.5)
+
+    # The saturated joints and how long each is at the limit.
+    durations = dict(re.findall(r"(d1|θ2|d3) is at the limit for ([\d.]+) ms", caption))
+    measured = {label: 1e3 * dt * at_limit[:, k].sum()
+                for k, label in enumerate(("d1", "θ2", "d3")) if at_limit[:, k].any()}
+    assert set(durations) == set(measured) == {"d1", "d3"}
+    for label, ms in durations.items():
+        assert float(ms) == pytest.approx(measured[label], abs=1.0)
+    rows = np.flatnonzero(at_limit[:, 2])
+    assert rows[0] == 0 and rows.size == rows[-1] + 1           # joint 3: one span from t = 0
+    assert 15.0 <= measured["d3"] <= 25.0
+    spans = re.findall(r"([+−])20 N for ([\d.]+) ms \(t = ([\d.]+)–([\d.]+) s\)", caption)
+    assert [(sign, float(ms)) for sign, ms, _, _ in spans] == [("+", 92.0), ("−", 115.0), ("+", 20.0)]
+
+    # Joint 1 crosses zero while at the limit, and the caption says when.
+    crossing = int(np.flatnonzero(e[:, 0] < 0)[0])
+    assert at_limit[crossing, 0]
+    stated_crossing = float(re.search(r"crosses zero at t = ([\d.]+) s, while the torque is held at the "
+                                      r"limit", caption).group(1))
+    assert stated_crossing == pytest.approx(second.t[crossing], abs=1.5e-3)
+    assert "only delays" not in caption
+    assert "here it does: d1 18.1 %" in caption
+
+    description = load_scenario("a7_id_higher_gain_saturated").description
+    assert "18 %" in description and "Joint 3" in description and "first 20 ms" in description
+    assert "only delay" not in description.split("At ω_n = 30 rad/s")[0]

@@ -19,6 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from armlab.metrics import settling_time
 from armlab.viz.layout import ACTUAL, COMMAND, LIMIT, THEORY, Panel, Scope, pretty
 from armlab.viz.theory import designed_error, initial_rate, linear_response
 
@@ -112,10 +113,29 @@ def comparison_scope(comparison: Comparison, first, second) -> Scope:
     return Scope(comparison.name, comparison.title, panels, caption=caption)
 
 
+def _intervals(rows: np.ndarray) -> list[tuple[int, int]]:
+    """The runs of consecutive indices in the sorted ``rows``, as (first, last + 1)."""
+    if rows.size == 0:
+        return []
+    breaks = np.flatnonzero(np.diff(rows) > 1)
+    firsts = np.r_[rows[0], rows[breaks + 1]]
+    lasts = np.r_[rows[breaks], rows[-1]] + 1
+    return [(int(a), int(b)) for a, b in zip(firsts, lasts, strict=True)]
+
+
+def _first_crossing(e: np.ndarray) -> int | None:
+    """The first sample at which ``e`` is on the other side of zero from e(0) (None if never)."""
+    if e[0] == 0.0:
+        return None
+    rows = np.flatnonzero(np.sign(e) == -np.sign(e[0]))
+    return int(rows[0]) if rows.size else None
+
+
 def comparison_caption(comparison: Comparison, first, second) -> str:
-    """What the two runs measured, in words: overshoot per joint (and, with ``torques``, how
-    long the second run sat at its limit and whether the designed loop it returns to can
-    overshoot from the state the saturation left)."""
+    """What the two runs measured, in words: overshoot per joint (and, with ``torques``, when
+    each joint of the second run sat at its limit and with which sign, whether its error
+    crossed zero while it was there, whether the designed loop it returns to can carry it
+    across zero from the state the saturation left, and when it settles)."""
     e1, e2 = first.signals["q_err"], second.signals["q_err"]
     parts = []
     for k, label in enumerate(first.labels["q_err"]):
@@ -127,27 +147,53 @@ def comparison_caption(comparison: Comparison, first, second) -> str:
     if not comparison.torques:
         return text
     saturated = _at_limit(second)
+    limit = _limits(second)
     controller = second.meta.get("controller") or {}
     kp = np.asarray(controller.get("kp", np.nan), dtype=float)
     gains = np.diag(kp) if kp.ndim == 2 else np.broadcast_to(kp, (second.n,))
-    crossing = []
+    dt = float(second.t[1] - second.t[0]) if second.t.size > 1 else 0.0
+    grown = []
     for k in np.flatnonzero(np.any(saturated, axis=0)):
         rows = np.flatnonzero(saturated[:, k])
         end = int(rows[-1]) + 1 if rows[-1] + 1 < second.t.size else int(rows[-1])
-        share = rows.size * float(second.t[1] - second.t[0]) if second.t.size > 1 else 0.0
+        unit = first.units["tau"][k]
+        spans = []
+        for a, b in _intervals(rows):
+            sign = "+" if second.tau[a, k] > 0 else "\u2212"
+            stop = second.t[b] if b < second.t.size else second.t[-1]
+            spans.append(f"{sign}{limit[k]:.3g} {unit} for {1e3 * (b - a) * dt:.3g} ms "
+                         f"(t = {second.t[a]:.3g}\u2013{stop:.3g} s)")
+        text += (f" {pretty(first.labels['tau'][k])} is at the limit for {1e3 * rows.size * dt:.3g} ms: "
+                 + ", then ".join(spans) + ".")
+        crossing = _first_crossing(e2[:, k])
+        crossed = crossing is not None and crossing <= end
+        if crossing is not None and crossing <= rows[-1]:
+            peak = int(np.argmax(-np.sign(e2[0, k]) * e2[:, k]))
+            text += (f" Its error crosses zero at t = {second.t[crossing]:.3g} s, while the torque is "
+                     f"held at the limit, and reaches q̃ = {_number(float(e2[peak, k]))} at t = "
+                     f"{second.t[peak]:.3g} s: the overshoot happens under saturation.")
         e, v = float(e2[end, k]), float(second.signals["qd_err"][end, k])
         omega = float(np.sqrt(gains[k])) if np.isfinite(gains[k]) else float("nan")
         s = v + omega * e
-        crossing.append(s * e <= 0)
-        verdict = ("the same sign as q̃: the designed loop cannot carry it past zero"
-                   if s * e > 0 else "the opposite sign of q̃: the designed loop carries it past zero")
-        text += (f" {pretty(first.labels['tau'][k])} is at the limit for {1e3 * share:.3g} ms, until "
-                 f"t = {second.t[end]:.3g} s; from there the loop is the designed one (ζ = 1, ω_n = "
+        across = "back across zero" if crossed else "past zero"
+        verdict = (f"the same sign as q̃: the designed loop cannot carry it {across}"
+                   if s * e > 0 else f"the opposite sign of q̃: the designed loop carries it {across}")
+        text += (f" From t = {second.t[end]:.3g} s the loop is the designed one (ζ = 1, ω_n = "
                  f"{omega:.3g} rad/s) started at q̃ = {_number(e)}, dq̃/dt = {_number(v)}, and "
                  f"dq̃/dt + ω_n q̃ = {_number(s)} has {verdict}.")
-    text += (" The seed expects the overshoot to grow under saturation; with the inverse-dynamics law "
-             "and an exact model it is the state that saturation leaves that decides")
-    text += "." if any(crossing) else ", and here that state gives none: saturation only delays the approach."
+        settled = [settling_time(run.t, run.signals["q_err"][:, k]) for run in (first, second)]
+        if e2[0, k] != 0.0 and None not in settled:
+            text += (f" It settles (2 % band) at t = {settled[1]:.3g} s, against {settled[0]:.3g} s "
+                     f"{comparison.labels[0]}.")
+        if overshoot(e2[:, k]) > overshoot(e1[:, k]) + 0.05:
+            grown.append(f"{pretty(first.labels['q_err'][k])} {overshoot(e2[:, k]):.3g} % against "
+                         f"{overshoot(e1[:, k]):.3g} %")
+    text += " The seed expects the overshoot to grow under saturation"
+    if grown:
+        text += f", and here it does: {'; '.join(grown)} {comparison.labels[0]}."
+    else:
+        text += (": with the inverse-dynamics law and an exact model it is the state that saturation "
+                 "leaves that decides, and here it gives none: saturation only delays the approach.")
     return text
 
 
