@@ -88,3 +88,33 @@ def test_saturation_overshoot_needs_a_long_saturation():
     assert joint1_overshoot("a7_id_high_gain") == joint1_overshoot("a7_id_higher_gain") == 0.0
     assert joint1_overshoot("a7_id_high_gain_saturated") == 0.0
     assert joint1_overshoot("a7_id_higher_gain_saturated") > 10.0
+
+
+def test_a15_seed_free_motion_drives_x_bar_to_zero_not_x_tilde():
+    """f_d = 0 with the seed's spring present: the integral action makes f_e = f_d = 0 along
+    Image(K), i.e. y_e = y_r (the spring's rest plane), and the position loop rests at
+    K_P x̄ = 0.  So x̃_y = y_d − y_r = 0.1 m stays, x_F,y = −x̃_y, and x̄ → 0; x and z reach
+    x_d.  The report draws x̄ in its own scope."""
+    from armlab.viz.layout import main_scopes, scope_layout
+
+    scenario = load_scenario("a15_parallel_free_seed")
+    result = scenario.run()
+    y_d, y_r = scenario.controller.reference.positions[-1][1], scenario.environment.rest_position[1]
+    p, x_f, h = result.signals["p"], result.signals["x_F"], result.signals["h_e"]
+    x_tilde = result.signals["p_des"] - p
+    x_bar = x_f + x_tilde
+    assert np.abs(x_bar[-1]).max() < 1e-9
+    assert abs(x_tilde[-1, 1] - (y_d - y_r)) < 1e-9 and abs(y_d - y_r - 0.1) < 1e-12
+    np.testing.assert_allclose(x_f[-1], [0.0, -(y_d - y_r), 0.0], atol=1e-9)
+    np.testing.assert_allclose(p[-1], [0.0, y_r, 0.4], atol=1e-9)     # on the rest plane
+    assert abs(h[-1, 1]) < 1e-6                                       # f_e = f_d = 0 at rest
+    assert h[:, 1].max() > 50.0                                       # but the spring pulled
+    # a15_parallel_free (a wall never touched) is free motion proper: x̃ → 0 there.
+    free = load_scenario("a15_parallel_free").run()
+    assert np.abs(free.signals["p_des"][-1] - free.signals["p"][-1]).max() < 1e-6
+    for scopes in (scope_layout(result), main_scopes(result)):
+        (scope,) = [s for s in scopes if s.name == "x_bar"]
+        panel = scope.panels[1]
+        assert [c[0] for c in panel.curves] == ["x̄ = x_F + x̃", "x̃ = x_d − x_e", "x_F"]
+        np.testing.assert_array_equal(panel.curves[0][2], x_bar[:, 1])
+    assert not [s for s in scope_layout(free) if s.name == "x_bar"][0].panels[1].curves[2][2].any()

@@ -46,7 +46,8 @@ SEED_ORDER = (
     "a13_admittance_tracking", "a13_admittance_tracking_push",
     "a14_force_inner_position", "a14_force_inner_position_stop", "a14_force_inner_position_y_only",
     "a14_force_inner_velocity", "a14_force_inner_velocity_z",
-    "a15_parallel_free", "a15_parallel_contact", "a15_parallel_contact_wall", "a15_parallel_outside_image",
+    "a15_parallel_free_seed", "a15_parallel_free", "a15_parallel_contact", "a15_parallel_contact_wall",
+    "a15_parallel_outside_image",
 )
 """The seed's order of its experiments, each improved variant right after the seed's own."""
 
