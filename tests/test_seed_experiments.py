@@ -9,6 +9,7 @@ from __future__ import annotations
 import warnings
 
 import numpy as np
+import pytest
 
 from armlab.scenarios import load_scenario
 
@@ -118,3 +119,51 @@ def test_a15_seed_free_motion_drives_x_bar_to_zero_not_x_tilde():
         assert [c[0] for c in panel.curves] == ["x̄ = x_F + x̃", "x̃ = x_d − x_e", "x_F"]
         np.testing.assert_array_equal(panel.curves[0][2], x_bar[:, 1])
     assert not [s for s in scope_layout(free) if s.name == "x_bar"][0].panels[1].curves[2][2].any()
+
+
+def _slow_pole(B, K, D):
+    """The slowest eigenvalue (real part) of B q̈ + D q̇ + K q = 0 restricted to joint 2."""
+    A = np.array([[0.0, 1.0], [-K / B, -D / B]])
+    return float(np.max(np.linalg.eigvals(A).real))
+
+
+def test_a9_seed_joint_damped_law_converges_and_differs_only_where_theta2_moves():
+    """τ = g + J_AᵀK_P x̃ − K_q q̇ (the seed's form, K_D = 0 in task space) against armlab's
+    τ = g + J_Aᵀ(K_P x̃ − K_D J_A q̇).  On the PRP J_AᵀK_D J_A = diag(30, 3 + 30ρ², 30) for every q
+    (checked at random q), so with K_q = diag(30, 3, 30) the laws differ in θ2's damping only:
+    on the seed's goal (θ2 stays 0) the runs coincide; on a goal that turns θ2 both converge,
+    and the tail of θ2's error decays at the slow pole of each law's linearisation at the goal
+    (B₂₂ θ̈2 + D θ̇2 + (10 + 100ρ²) θ2 = 0, D = 3 + 30ρ² or 3)."""
+    from armlab.dynamics import inertia_matrix
+    from armlab.kinematics import analytic_jacobian, forward_kinematics
+
+    plant = load_scenario("a09_pd_goal").plant
+    KD = np.diag([30.0, 30.0, 30.0, 3.0, 3.0, 3.0])
+    rng = np.random.default_rng(9)
+    for q in rng.uniform([-0.3, -np.pi, -0.1], [0.5, np.pi, 0.15], size=(20, 3)):
+        p = forward_kinematics(plant, q, frame="0")[:3, 3]
+        rho = np.hypot(p[0], p[1])
+        J_A = analytic_jacobian(plant, q, frame="0", branch=np.array([q[1] + np.pi / 2, -np.pi / 2, 0.0]))
+        np.testing.assert_allclose(J_A.T @ KD @ J_A, np.diag([30.0, 3.0 + 30.0 * rho**2, 30.0]), atol=1e-12)
+
+    seed_goal, plain_goal = (load_scenario(n).run() for n in ("a09_pd_goal_joint_damping", "a09_pd_goal"))
+    np.testing.assert_allclose(seed_goal.q, plain_goal.q, atol=1e-15)
+    assert np.abs(seed_goal.signals["x_err"][-1]).max() < 1e-8
+
+    seed, plain = (load_scenario(n).run() for n in ("a09_pd_goal_rotation_joint_damping",
+                                                     "a09_pd_goal_rotation"))
+    q_goal = np.array([0.0, np.pi / 4, 0.05])
+    for result in (seed, plain):
+        np.testing.assert_allclose(result.q[-1], q_goal, atol=1e-8)
+        assert np.abs(result.signals["x_err"][-1]).max() < 1e-8
+    np.testing.assert_array_equal(seed.q[:, 0], plain.q[:, 0])   # d1 does not see θ2's damping
+    assert np.abs(seed.q[:, 1] - plain.q[:, 1]).max() > 0.05
+
+    rho = 0.2 - q_goal[2]
+    B22 = inertia_matrix(plant, q_goal)[1, 1]
+    window = (seed.t >= 2.5) & (seed.t <= 4.5)
+    for result, damping in ((seed, 3.0), (plain, 3.0 + 30.0 * rho**2)):
+        error = np.abs(result.q[window, 1] - q_goal[1])
+        rate = np.polyfit(result.t[window], np.log(error), 1)[0]
+        assert rate == pytest.approx(_slow_pole(B22, 10.0 + 100.0 * rho**2, damping), rel=1e-4)
+    assert _slow_pole(B22, 10.0 + 100.0 * rho**2, 3.0) < _slow_pole(B22, 10.0 + 100.0 * rho**2, 3.675)
