@@ -167,3 +167,34 @@ def test_a9_seed_joint_damped_law_converges_and_differs_only_where_theta2_moves(
         rate = np.polyfit(result.t[window], np.log(error), 1)[0]
         assert rate == pytest.approx(_slow_pole(B22, 10.0 + 100.0 * rho**2, damping), rel=1e-4)
     assert _slow_pole(B22, 10.0 + 100.0 * rho**2, 3.0) < _slow_pole(B22, 10.0 + 100.0 * rho**2, 3.675)
+
+
+def test_a8_no_visible_change_holds_only_for_a_small_quadratic_friction():
+    """The seed's "no visible change in performance unless F₂ is increased by a lot", measured
+    by the sweep a8_quadratic_friction (its rows run one by one): the RMS tracking error stays
+    within 4 % of the run without F₂ (a8_case1_sine) up to F₂ ≈ 0.3, is 10 % above it by 0.56
+    and grows with F₂ from there; from F₂ ≈ 300 the 1 ms step diverges.  The large-F₂ scenario
+    shows the change."""
+    from armlab.sweep import load_sweep, run_one
+
+    def rms(result):
+        return float(np.sqrt(np.mean(result.signals["q_err"][:, 0] ** 2)))
+
+    baseline = load_scenario("a8_case1_sine").run()
+    spec = load_sweep("a8_quadratic_friction")
+    rows = {i: run_one(spec, i) for i in (0, 3, 6, 7, 9, 12, 15, 17, 18)}
+    f2 = {i: row["disturbance[0].coefficient"] for i, row in rows.items()}
+    assert f2[0] == pytest.approx(0.01) and f2[6] == pytest.approx(10 ** -0.5)
+    assert f2[12] == pytest.approx(10.0) and f2[18] == pytest.approx(10 ** 2.5)
+    for i in (0, 3, 6):
+        assert rows[i]["rms_error"] == pytest.approx(rms(baseline), rel=0.04), f2[i]
+    grown = [rows[i]["rms_error"] / rms(baseline) for i in (7, 9, 12, 15, 17)]
+    assert grown[0] > 1.1 and np.all(np.diff(grown) > 0) and grown[2] > 5.0
+    assert rows[17]["status"] == "ok" and rows[18]["status"] == "diverged"
+
+    large = load_scenario("a8_case1_wrong_plant1_large_f2").run()
+    seed = load_scenario("a8_case1_wrong_plant1").run()
+    second_half = large.t >= 25.0
+    assert rms(large) > 10 * rms(baseline) and rms(large) > 2 * rms(seed)
+    assert np.abs(large.signals["q_err"][second_half, 0]).max() > 0.2
+    assert np.abs(baseline.signals["q_err"][second_half, 0]).max() < 0.005
