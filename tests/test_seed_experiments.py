@@ -141,3 +141,112 @@ def test_a7_omega_60_saturation_caption_matches_the_run():
     description = load_scenario("a7_id_higher_gain_saturated").description
     assert "18 %" in description and "Joint 3" in description and "first 20 ms" in description
     assert "only delay" not in description.split("At ω_n = 30 rad/s")[0]
+
+
+def test_a15_seed_free_motion_drives_x_bar_to_zero_not_x_tilde():
+    """f_d = 0 with the seed's spring present: the integral action makes f_e = f_d = 0 along
+    Image(K), i.e. y_e = y_r (the spring's rest plane), and the position loop rests at
+    K_P x̄ = 0.  So x̃_y = y_d − y_r = 0.1 m stays, x_F,y = −x̃_y, and x̄ → 0; x and z reach
+    x_d.  The report draws x̄ in its own scope."""
+    from armlab.viz.layout import main_scopes, scope_layout
+
+    scenario = load_scenario("a15_parallel_free_seed")
+    result = scenario.run()
+    y_d, y_r = scenario.controller.reference.positions[-1][1], scenario.environment.rest_position[1]
+    p, x_f, h = result.signals["p"], result.signals["x_F"], result.signals["h_e"]
+    x_tilde = result.signals["p_des"] - p
+    x_bar = x_f + x_tilde
+    assert np.abs(x_bar[-1]).max() < 1e-9
+    assert abs(x_tilde[-1, 1] - (y_d - y_r)) < 1e-9 and abs(y_d - y_r - 0.1) < 1e-12
+    np.testing.assert_allclose(x_f[-1], [0.0, -(y_d - y_r), 0.0], atol=1e-9)
+    np.testing.assert_allclose(p[-1], [0.0, y_r, 0.4], atol=1e-9)     # on the rest plane
+    assert abs(h[-1, 1]) < 1e-6                                       # f_e = f_d = 0 at rest
+    assert h[:, 1].max() > 50.0                                       # but the spring pulled
+    # a15_parallel_free (a wall never touched) is free motion proper: x̃ → 0 there.
+    free = load_scenario("a15_parallel_free").run()
+    assert np.abs(free.signals["p_des"][-1] - free.signals["p"][-1]).max() < 1e-6
+    for scopes in (scope_layout(result), main_scopes(result)):
+        (scope,) = [s for s in scopes if s.name == "x_bar"]
+        panel = scope.panels[1]
+        assert [c[0] for c in panel.curves] == ["x̄ = x_F + x̃", "x̃ = x_d − x_e", "x_F"]
+        np.testing.assert_array_equal(panel.curves[0][2], x_bar[:, 1])
+    assert not [s for s in scope_layout(free) if s.name == "x_bar"][0].panels[1].curves[2][2].any()
+
+
+def _slow_pole(B, K, D):
+    """The slowest eigenvalue (real part) of B q̈ + D q̇ + K q = 0 restricted to joint 2."""
+    A = np.array([[0.0, 1.0], [-K / B, -D / B]])
+    return float(np.max(np.linalg.eigvals(A).real))
+
+
+def test_a9_seed_joint_damped_law_converges_and_differs_only_where_theta2_moves():
+    """τ = g + J_AᵀK_P x̃ − K_q q̇ (the seed's form, K_D = 0 in task space) against armlab's
+    τ = g + J_Aᵀ(K_P x̃ − K_D J_A q̇).  On the PRP J_AᵀK_D J_A = diag(30, 3 + 30ρ², 30) for every q
+    (checked at random q), so with K_q = diag(30, 3, 30) the laws differ in θ2's damping only:
+    on the seed's goal (θ2 stays 0) the runs coincide; on a goal that turns θ2 both converge,
+    and the tail of θ2's error decays at the slow pole of each law's linearisation at the goal
+    (B₂₂ θ̈2 + D θ̇2 + (10 + 100ρ²) θ2 = 0, D = 3 + 30ρ² or 3)."""
+    from armlab.dynamics import inertia_matrix
+    from armlab.kinematics import analytic_jacobian, forward_kinematics
+
+    plant = load_scenario("a09_pd_goal").plant
+    KD = np.diag([30.0, 30.0, 30.0, 3.0, 3.0, 3.0])
+    rng = np.random.default_rng(9)
+    for q in rng.uniform([-0.3, -np.pi, -0.1], [0.5, np.pi, 0.15], size=(20, 3)):
+        p = forward_kinematics(plant, q, frame="0")[:3, 3]
+        rho = np.hypot(p[0], p[1])
+        J_A = analytic_jacobian(plant, q, frame="0", branch=np.array([q[1] + np.pi / 2, -np.pi / 2, 0.0]))
+        np.testing.assert_allclose(J_A.T @ KD @ J_A, np.diag([30.0, 3.0 + 30.0 * rho**2, 30.0]), atol=1e-12)
+
+    seed_goal, plain_goal = (load_scenario(n).run() for n in ("a09_pd_goal_joint_damping", "a09_pd_goal"))
+    np.testing.assert_allclose(seed_goal.q, plain_goal.q, atol=1e-15)
+    assert np.abs(seed_goal.signals["x_err"][-1]).max() < 1e-8
+
+    seed, plain = (load_scenario(n).run() for n in ("a09_pd_goal_rotation_joint_damping",
+                                                     "a09_pd_goal_rotation"))
+    q_goal = np.array([0.0, np.pi / 4, 0.05])
+    for result in (seed, plain):
+        np.testing.assert_allclose(result.q[-1], q_goal, atol=1e-8)
+        assert np.abs(result.signals["x_err"][-1]).max() < 1e-8
+    np.testing.assert_array_equal(seed.q[:, 0], plain.q[:, 0])   # d1 does not see θ2's damping
+    assert np.abs(seed.q[:, 1] - plain.q[:, 1]).max() > 0.05
+
+    rho = 0.2 - q_goal[2]
+    B22 = inertia_matrix(plant, q_goal)[1, 1]
+    window = (seed.t >= 2.5) & (seed.t <= 4.5)
+    for result, damping in ((seed, 3.0), (plain, 3.0 + 30.0 * rho**2)):
+        error = np.abs(result.q[window, 1] - q_goal[1])
+        rate = np.polyfit(result.t[window], np.log(error), 1)[0]
+        assert rate == pytest.approx(_slow_pole(B22, 10.0 + 100.0 * rho**2, damping), rel=1e-4)
+    assert _slow_pole(B22, 10.0 + 100.0 * rho**2, 3.0) < _slow_pole(B22, 10.0 + 100.0 * rho**2, 3.675)
+
+
+def test_a8_no_visible_change_holds_only_for_a_small_quadratic_friction():
+    """The seed's "no visible change in performance unless F₂ is increased by a lot", measured
+    by the sweep a8_quadratic_friction (its rows run one by one): the RMS tracking error stays
+    within 4 % of the run without F₂ (a8_case1_sine) up to F₂ ≈ 0.3, is 10 % above it by 0.56
+    and grows with F₂ from there; from F₂ ≈ 300 the 1 ms step diverges.  The large-F₂ scenario
+    shows the change."""
+    from armlab.sweep import load_sweep, run_one
+
+    def rms(result):
+        return float(np.sqrt(np.mean(result.signals["q_err"][:, 0] ** 2)))
+
+    baseline = load_scenario("a8_case1_sine").run()
+    spec = load_sweep("a8_quadratic_friction")
+    rows = {i: run_one(spec, i) for i in (0, 3, 6, 7, 9, 12, 15, 17, 18)}
+    f2 = {i: row["disturbance[0].coefficient"] for i, row in rows.items()}
+    assert f2[0] == pytest.approx(0.01) and f2[6] == pytest.approx(10 ** -0.5)
+    assert f2[12] == pytest.approx(10.0) and f2[18] == pytest.approx(10 ** 2.5)
+    for i in (0, 3, 6):
+        assert rows[i]["rms_error"] == pytest.approx(rms(baseline), rel=0.04), f2[i]
+    grown = [rows[i]["rms_error"] / rms(baseline) for i in (7, 9, 12, 15, 17)]
+    assert grown[0] > 1.1 and np.all(np.diff(grown) > 0) and grown[2] > 5.0
+    assert rows[17]["status"] == "ok" and rows[18]["status"] == "diverged"
+
+    large = load_scenario("a8_case1_wrong_plant1_large_f2").run()
+    seed = load_scenario("a8_case1_wrong_plant1").run()
+    second_half = large.t >= 25.0
+    assert rms(large) > 10 * rms(baseline) and rms(large) > 2 * rms(seed)
+    assert np.abs(large.signals["q_err"][second_half, 0]).max() > 0.2
+    assert np.abs(baseline.signals["q_err"][second_half, 0]).max() < 0.005

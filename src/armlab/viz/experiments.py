@@ -35,9 +35,11 @@ SEED_ORDER = (
     "a7_id_via_points", "a7_id_regulation", "a7_id_mismatch", "a7_id_mismatch_regulation",
     "a7_id_mismatch_whole_model", "a7_id_mismatch_whole_model_regulation",
     "a7_id_high_gain", "a7_id_high_gain_saturated", "a7_id_higher_gain", "a7_id_higher_gain_saturated",
-    "a8_case1_sine", "a8_case1_wrong_plant1", "a8_case1_wrong_plant1_seed_form", "a8_case1_wrong_plant2",
+    "a8_case1_sine", "a8_case1_wrong_plant1", "a8_case1_wrong_plant1_seed_form",
+    "a8_case1_wrong_plant1_large_f2", "a8_case1_wrong_plant2",
     "a8_case2_square", "a8_case2_square_faster", "a8_case2_wrong_plant1", "a8_case2_wrong_plant2",
-    "a09_pd_goal", "a09_pd_goal_rotation", "a09_pd_near_singular",
+    "a09_pd_goal", "a09_pd_goal_joint_damping", "a09_pd_goal_rotation", "a09_pd_goal_rotation_joint_damping",
+    "a09_pd_near_singular",
     "a10_id_regulation", "a10_id_via_poses", "a10_id_random_goals", "a10_id_rotation_damped",
     "a11_compliance", "a11_compliance_push", "a11_compliance_diagonal", "a11_compliance_diagonal_push",
     "a12_impedance_regulation", "a12_impedance_regulation_push", "a12_impedance_regulation_damped",
@@ -46,7 +48,8 @@ SEED_ORDER = (
     "a13_admittance_tracking", "a13_admittance_tracking_push",
     "a14_force_inner_position", "a14_force_inner_position_stop", "a14_force_inner_position_y_only",
     "a14_force_inner_velocity", "a14_force_inner_velocity_z",
-    "a15_parallel_free", "a15_parallel_contact", "a15_parallel_contact_wall", "a15_parallel_outside_image",
+    "a15_parallel_free_seed", "a15_parallel_free", "a15_parallel_contact", "a15_parallel_contact_wall",
+    "a15_parallel_outside_image",
 )
 """The seed's order of its experiments, each improved variant right after the seed's own."""
 

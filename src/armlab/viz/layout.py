@@ -15,6 +15,8 @@ plots a control engineer expects without plotting code of its own:
   to be off-scale where they would flatten the trace);
 * ``forces``     — the contact wrench h_e against the desired force (``f_d``/``f_des``/``h_d``),
   with an inset around f_d where a transient sets the scale;
+* ``x_bar``      — parallel force/position control (A15): the seed's x̄ = x_F + x̃ = x_F + x_d − x_e
+  per component, with x̃ and x_F, from the logged ``x_F``, ``p_des`` and ``p``;
 * ``estimates``  — parameter estimates (a group named ``*_hat``, or a controller state whose
   components are all named ``*_hat``) against the true values (``<name>_true`` signal or
   ``meta["true_parameters"]``), with Y(π̂ − π) when the regressor ``Y`` is logged;
@@ -25,7 +27,7 @@ plots a control engineer expects without plotting code of its own:
   signal and unit.
 
 :func:`main_scopes` gives the few of them that show what the controller is for (the tracking
-of its space, the contact wrench, the estimates): all that ``armlab report --quick`` draws.
+of its space, the contact wrench, x̄, the estimates): all that ``armlab report --quick`` draws.
 
 Each figure is a :class:`Scope`: a title and a column of :class:`Panel` s sharing the time
 axis; every y label carries its unit.  :mod:`armlab.viz.scopes` draws them.
@@ -219,21 +221,23 @@ def scope_layout(result) -> list[Scope]:
     result, note = before_divergence(result)
     run = _run_of(result)
     return _noted([*_tracking_scopes(run), *_error_scopes(run), _torque_scope(run), *_force_scopes(run),
-                   *_estimate_scopes(run), *_lyapunov_scopes(run), *_singular_value_scopes(run),
-                   *_signal_scopes(run)], note)
+                   *_parallel_error_scopes(run), *_estimate_scopes(run), *_lyapunov_scopes(run),
+                   *_singular_value_scopes(run), *_signal_scopes(run)], note)
 
 
 def main_scopes(result) -> list[Scope]:
     """The figures of :func:`scope_layout` that show what the run's controller is for, in its
     order: the tracking of the space the controller works in (each task-space group against
     its reference when the run logs one, e.g. ``p``; else ``positions``), the contact wrench
-    (``forces``, A11–A15) and the parameter estimates (``estimates``, A8).  Built alone, not
+    (``forces``, A11–A15), x̄ (``x_bar``, A15) and the parameter estimates (``estimates``, A8).
+    Built alone, not
     picked from the whole layout: the errors' designed response would import SciPy's signal
     package (over a second)."""
     result, note = before_divergence(result)
     run = _run_of(result)
     tracking = _tracking_scopes(run)
-    return _noted([*(tracking[1:] or tracking), *_force_scopes(run), *_estimate_scopes(run)], note)
+    return _noted([*(tracking[1:] or tracking), *_force_scopes(run), *_parallel_error_scopes(run),
+                   *_estimate_scopes(run)], note)
 
 
 # ----------------------------------------------------------------------------- tracking
@@ -485,6 +489,41 @@ def _force_scopes(run: _Run) -> list[Scope]:
         panels.append(panel)
     run.used.update({"h_e", ref} - {None})
     return [Scope("forces", "contact wrench h_e (exerted on the environment, in Σ_0)", panels)]
+
+
+# ----------------------------------------------------------------------------- x̄ (A15)
+
+PARALLEL_CONTROLLERS = ("ParallelForcePosition",)
+X_BAR_CAPTION = ("x̄ = x_F + x̃ = x_F + x_d − x_e is what the position loop of parallel control drives "
+                 "to zero (at rest K_P x̄ = 0). Along Image(K) x̃ stays where the environment holds the "
+                 "end effector and x_F, the force loop's output, takes up the difference; outside "
+                 "Image(K), where f_d asks for no force, x_F = 0 and x̄ = x̃.")
+
+
+def _parallel_error_scopes(run: _Run) -> list[Scope]:
+    """The seed's x̄ scope of parallel force/position control: x̄ = x_F + x̃ per component,
+    drawn with x̃ = p_des − p and x_F; none for other controllers."""
+    groups = run.groups
+    if run.kind not in PARALLEL_CONTROLLERS or not {"x_F", "p", "p_des"} <= set(groups):
+        return []
+    x_f, x_tilde = groups["x_F"], groups["p_des"] - groups["p"]
+    if x_f.shape != x_tilde.shape:
+        return []
+    x_bar = x_f + x_tilde
+    panels = []
+    for k, label in enumerate(run.labels["x_F"]):
+        unit = run.units["x_F"][k]
+        panel = Panel(_unit_label(label, unit))
+        panel.curves += [("x̄ = x_F + x̃", run.t, x_bar[:, k], dict(color=ACTUAL, lw=2.2)),
+                         ("x̃ = x_d − x_e", run.t, x_tilde[:, k], dict(color=DESIRED, lw=1.2, ls="--")),
+                         ("x_F", run.t, x_f[:, k], dict(color=COMPLIANT, lw=1.5, ls=":"))]
+        panel.hlines.append((0.0, dict(color="0.5", lw=0.8)))
+        panel.note = f"final x̄ {x_bar[-1, k]:.3g} {unit}\nx̃ {x_tilde[-1, k]:.3g} {unit}"
+        panel.note_at = _level(x_bar[-1, k])
+        panels.append(panel)
+    run.used.add("x_F")
+    return [Scope("x_bar", "x̄ = x_F + x̃ (the position loop's error), x̃ = x_d − x_e and x_F", panels,
+                  caption=X_BAR_CAPTION)]
 
 
 # ----------------------------------------------------------------------------- estimates
