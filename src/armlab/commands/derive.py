@@ -30,7 +30,8 @@ def register(subparsers) -> None:
     add_tip_argument(parser)
     add_allow_outside_argument(parser)
     parser.add_argument("--frame", choices=("0", "base"), default="0",
-                        help="frame of the kinematic results and task coordinates (default: 0)")
+                        help="frame of the kinematic results and task coordinates; A1 with 'base' has "
+                             "its results in Σ_0 and in Σ_base (default: 0)")
     parser.add_argument("--format", dest="fmt", choices=("text", "latex", "markdown"), default="text",
                         help="output format (default: text)")
     parser.add_argument("--numeric", action="store_true",

@@ -95,7 +95,11 @@ def _T(i, j) -> tuple[str, str]:
 
 
 def _a1(s: Section, sr: SymbolicRobot, frame: str) -> Section:
+    """A1 in Σ_0 and, for ``frame="base"``, in Σ_base as well (as the seed does: its later
+    assignments use the Σ_0 results): transforms, inverse kinematics and Jacobians of each."""
     K = kinematics
+    # Σ_0 first: the seed's later assignments all use it.
+    frames = ("0", "base") if frame == "base" else ("0",)
     for table_frame in ("0", "base"):
         table = K.dh_table(sr, table_frame)
         if table is not None and (table_frame == "0" or sr.base_dh is not None):
@@ -107,7 +111,7 @@ def _a1(s: Section, sr: SymbolicRobot, frame: str) -> Section:
     for i, A in enumerate(K.relative_transforms(sr), start=1):
         label, tex = _T(i, i - 1)
         s.add(label, A, tex)
-    for f in ("0", "base") if frame == "base" else ("0",):
+    for f in frames:
         for i, T in enumerate(K.link_transforms(sr, f), start=1):
             if i == 1 and f == "0":
                 continue  # T_1^0 is the first relative transform above
@@ -118,37 +122,49 @@ def _a1(s: Section, sr: SymbolicRobot, frame: str) -> Section:
             s.add(label, K.end_effector_pose(sr, f), tex.replace("{base}", r"{\mathrm{base}}"))
         else:
             s.notes.append(f"Σ_e = Σ_{sr.n}: the end-effector pose is T{str(sr.n).translate(_SUB)}^{f}.")
-    solutions = _inverse_kinematics(s, sr, frame)
+    for f in frames:
+        _a1_in_frame(s, sr, f, IK_SHARE / len(frames))
+    return s
+
+
+def _a1_in_frame(s: Section, sr: SymbolicRobot, frame: str, ik_share: float) -> None:
+    """A1's inverse kinematics and Jacobians in Σ_``frame``, each labelled with its frame."""
+    K = kinematics
+    where = r"\mathrm{base}" if frame == "base" else "0"
+    solutions = _inverse_kinematics(s, sr, frame, ik_share)
     for k, branch in enumerate(solutions or [], start=1):
         lhs = sp.Matrix(list(branch))
         s.add(f"IK branch {k} (p_e = (p_x, p_y, p_z) in Σ_{frame})",
               sp.Eq(lhs, sp.Matrix(list(branch.values())), evaluate=False),
-              rf"\text{{IK, branch {k}}}")
+              rf"\text{{IK, branch {k}}}\ (\Sigma_{{{where}}})")
     if sr.n <= 3 and solutions == []:
-        s.notes.append("No closed-form inverse kinematics found for the position equations.")
-    where = r"\mathrm{base}" if frame == "base" else "0"
+        s.notes.append(f"No closed-form inverse kinematics found for the position equations in Σ_{frame}.")
     s.add(f"J (geometric, Σ_{frame})", K.geometric_jacobian(sr, frame), rf"J^{{{where}}}")
     if _large(sr):
         J_A, T_inv = K.analytical_jacobian_formula(sr, frame)
-        s.add("T(φ)⁻¹ (ZYZ)", T_inv, r"T^{-1}(\phi)")
+        if "T(φ)⁻¹ (ZYZ)" not in [item.label for item in s.items]:  # the same in both frames
+            s.add("T(φ)⁻¹ (ZYZ)", T_inv, r"T^{-1}(\phi)")
         s.add(f"J_A = blockdiag(I, T(φ)⁻¹) J (Σ_{frame})", J_A, rf"J_A^{{{where}}}")
-        return s
+        return
     J_A, phi = K.analytical_jacobian(sr, frame)
     s.add(f"φ_e (ZYZ of R_e in Σ_{frame})", phi, rf"\phi_e^{{{where}}}")
     s.add(f"J_A (analytical, ZYZ, Σ_{frame})", J_A, rf"J_A^{{{where}}}")
-    return s
 
 
-def _inverse_kinematics(s: Section, sr: SymbolicRobot, frame: str) -> list[dict] | None:
-    """The closed-form position IK within :data:`IK_SHARE` of the section's budget (SymPy's
-    polynomial solver is the step whose cost explodes first); None, with a note, past it."""
-    seconds = None if s.budget is None else max(IK_SHARE * s.budget, 0.1)
+def _inverse_kinematics(s: Section, sr: SymbolicRobot, frame: str,
+                        share: float | None = None) -> list[dict] | None:
+    """The closed-form position IK in Σ_``frame`` within ``share`` (default :data:`IK_SHARE`)
+    of the section's budget (SymPy's polynomial solver is the step whose cost explodes first);
+    None, with a note, past it."""
+    share = IK_SHARE if share is None else share
+    seconds = None if s.budget is None else max(share * s.budget, 0.1)
     finished, solutions = call_within(seconds, kinematics.position_inverse_kinematics, sr, frame,
                                       load=load_unevaluated)
     if finished:
         return solutions
     s.notes.append(f"Closed-form inverse kinematics skipped: SymPy's polynomial solver did not finish "
-                   f"within {seconds:.3g} s (its share of the A1 budget); use armlab's numeric IK.")
+                   f"within {seconds:.3g} s (its share of the A1 budget) on the position equations "
+                   f"in Σ_{frame}; use armlab's numeric IK.")
     return None
 
 
@@ -163,7 +179,8 @@ def load_unevaluated(data: bytes):
 
 IK_SHARE = 0.4
 """Share of A1's budget that the closed-form inverse kinematics may use, so that the Jacobians
-after it are still derived when the solver gives up."""
+after it are still derived when the solver gives up (split evenly between Σ_0 and Σ_base when
+A1 is derived in both)."""
 
 DEFAULT_BUDGET = 60.0
 """Seconds of wall-clock time each assignment of :func:`derive` may take by default: the
@@ -322,8 +339,10 @@ def derive(robot: Robot | SymbolicRobot, *, frame: str = "0", numeric: bool = Fa
            only: str | None = None, budget: float | None = DEFAULT_BUDGET) -> list[Section]:
     """The A1–A5 derivations of ``robot`` (or just ``only``) as :class:`Section` objects.
 
-    ``frame`` ("0" or "base") is the frame of the kinematic results of A1 and of the task
-    coordinates of A5; dynamics are always written with g_0 and velocities in Σ_0.
+    ``frame`` ("0" or "base") is the frame of the task coordinates of A5 and of the kinematic
+    results of A1: with "base" A1 has its transforms, inverse kinematics and Jacobians in Σ_0
+    and in Σ_base, each labelled with its frame (the seed computes both and uses Σ_0's in
+    every later assignment).  Dynamics are always written with g_0 and velocities in Σ_0.
     ``numeric`` substitutes the parameter values.  Results are cached per symbolic robot, so
     deriving A3 after A2 reuses B.
 

@@ -25,6 +25,7 @@ import threading
 import time
 from dataclasses import replace
 from pathlib import Path
+from typing import NamedTuple
 
 import matplotlib.pyplot as plt
 import numpy as np
@@ -161,33 +162,71 @@ def _cached_symbolic_sections(robot: Robot, progress: tqdm, budget: float | None
     return sections
 
 
-def _symbolic_sections(robot: Robot, progress: tqdm,
-                       budget: float | None = None) -> tuple[dict[int, str], bool]:
-    """HTML of the A1–A5 derivations by assignment number, and whether every one finished
-    within ``budget`` seconds (``armlab.symbolic.derive``).
-
-    A1 is derived in both Σ_0 and Σ_base (as the seed does), A2–A5 in Σ_0; one symbolic robot
-    serves all five, so later sections reuse B, C, g.
-    """
-    from armlab.symbolic import symbolic_robot
-    from armlab.symbolic.render import to_mathml
+def derivation_robots(robot: Robot) -> dict[str, Robot]:
+    """The robot each of A1–A5 is derived for: ``robot``."""
     from armlab.symbolic.sections import ASSIGNMENTS as DERIVED
+
+    return dict.fromkeys(DERIVED, robot)
+
+
+class Derivation(NamedTuple):
+    """One assignment's symbolic results as the report shows them: the ``section``
+    (``symbolic.derive``) of ``robot``, the report's robot or its actuated variant (A4), and
+    the symbolic robot ``symbolic`` its expressions are written in."""
+
+    key: str
+    robot: Robot
+    symbolic: object
+    section: object
+
+
+def derivations(robot: Robot, budget: float | None = None, only=None,
+                progress: tqdm | None = None) -> list[Derivation]:
+    """The report's A1–A5 (or the keys in ``only``) of ``robot``: A1 in both Σ_0 and Σ_base (as
+    the seed does: its transforms, inverse kinematics and Jacobians in each), A2–A5 in Σ_0.
+    One symbolic robot serves the assignments of each robot, so later ones reuse B, C, g."""
+    from armlab.symbolic import symbolic_robot
     from armlab.symbolic.sections import derive
 
-    sr = symbolic_robot(robot)
-    out: dict[int, str] = {}
-    complete = True
-    for key in DERIVED:
-        progress.set_postfix_str(f"deriving {key}")
+    robots = derivation_robots(robot)
+    symbolic: dict[int, object] = {}
+    out = []
+    for key, subject in robots.items():
+        if only is not None and key not in only:
+            continue
+        if progress is not None:
+            progress.set_postfix_str(f"deriving {key}" + ("" if subject is robot else f" for {subject.name}"))
+        if id(subject) not in symbolic:
+            symbolic[id(subject)] = symbolic_robot(subject)
+        sr = symbolic[id(subject)]
         (section,) = derive(sr, frame="base" if key == "A1" else "0", only=key, budget=budget)
-        complete &= section.complete
-        blocks = [f"<h3>Derivation: {html.escape(section.title)}</h3>"]
-        for item in section.items:
-            blocks.append(html.math_block(item.label, to_mathml(item.expr)))
-        blocks += [f'<p class="note">{html.escape(note)}</p>' for note in section.notes]
-        out[int(key[1:])] = "".join(blocks)
-        progress.update()
-    return out, complete
+        out.append(Derivation(key, subject, sr, section))
+        if progress is not None:
+            progress.update()
+    return out
+
+
+def derivation_html(derivation: Derivation, robot: Robot) -> str:
+    """HTML of one derivation in the report of ``robot``: its heading (naming the robot it is
+    derived for when that is not ``robot``), each result as presentation MathML, its notes."""
+    from armlab.symbolic.render import to_mathml
+
+    section, subject = derivation.section, derivation.robot
+    where = "" if subject is robot else f" for {subject.name}"
+    blocks = [f"<h3>Derivation{html.escape(where)}: {html.escape(section.title)}</h3>"]
+    for item in section.items:
+        blocks.append(html.math_block(item.label, to_mathml(item.expr)))
+    blocks += [f'<p class="note">{html.escape(note)}</p>' for note in section.notes]
+    return "".join(blocks)
+
+
+def _symbolic_sections(robot: Robot, progress: tqdm,
+                       budget: float | None = None) -> tuple[dict[int, str], bool]:
+    """HTML of the A1–A5 derivations by assignment number (:func:`derivations`), and whether
+    every one finished within ``budget`` seconds (``armlab.symbolic.derive``)."""
+    derived = derivations(robot, budget, progress=progress)
+    out = {int(d.key[1:]): derivation_html(d, robot) for d in derived}
+    return out, all(d.section.complete for d in derived)
 
 
 # ----------------------------------------------------------------------------- A6–A15
