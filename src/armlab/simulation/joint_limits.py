@@ -71,8 +71,8 @@ def _user_stacklevel() -> int:
     scenario's ``run``, the cache repair around them).
 
     It walks the frames' code objects (``inspect.currentframe``), not ``inspect.stack``: that
-    one looks up every frame's module and source line, ~2 ms on a sweep's stack, where this
-    call is made for every run."""
+    one looks up every frame's module and source line: 0.26 ms of the 0.68 ms of Python around
+    each 100-step A6 sweep run, where this call is made for every run."""
     frame = inspect.currentframe()
     frame = frame.f_back if frame is not None else None
     level = 0
