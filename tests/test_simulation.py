@@ -9,12 +9,12 @@ from numba import njit
 
 import armlab
 from armlab.control.adaptive import SlotineLi1DoF
+from armlab.control.entry import generated_entry
 from armlab.control.joint_space import JointInverseDynamics, JointPDGravity
 from armlab.references.joint import Constant, Sinusoid
-from armlab.simulation import SimulationDiverged, SimulationError, simulate, simulate_batch
+from armlab.simulation import SimulationDiverged, SimulationError, loop, simulate, simulate_batch
 from armlab.simulation.disturbances import ConstantTorque, QuadraticFriction, SinusoidalTorque, StepTorque
 from armlab.simulation.results import SimulationResult
-from armlab.simulation.simulator import _own_entry
 
 PRP = armlab.load_robot("prp")
 LINK1 = armlab.load_robot("link1")
@@ -132,32 +132,40 @@ def test_same_run_twice_is_bit_identical():
 
 
 def _without_entry(controller):
-    """The same controller as an instance of a subclass without an ``entry``: the loop then
-    calls the law through its address (the path of a user's law)."""
+    """The same controller as an instance of a subclass with ``inline_entry = False``: the loop
+    then calls the law through its address."""
     cls = type(controller)
     plain = dataclasses.make_dataclass(f"Plain{cls.__name__}", [], bases=(cls,), frozen=True, eq=False,
-                                       namespace={"entry": None})
+                                       namespace={"inline_entry": False})
     return plain(**{f.name: getattr(controller, f.name) for f in dataclasses.fields(controller)})
 
 
 @pytest.mark.parametrize("method", ["rk4", "adaptive"])
-def test_a_law_entry_gives_the_results_of_the_law_called_by_address(method):
+def test_a_law_entry_gives_the_results_of_the_law_called_by_address(method, monkeypatch):
+    entries = []
+    addresses = loop.addresses
+
+    def spy(*args, **kwargs):
+        entries.append(args[6] if len(args) > 6 else kwargs.get("entry"))
+        return addresses(*args, **kwargs)
+
+    monkeypatch.setattr(loop, "addresses", spy)
     cases = [(PRP, pd(PRP, [25, 0.5, 10], [10, 0.08, 3], [0.1, 1.0, 0.05], "desired")),
              (PRP, JointInverseDynamics.from_poles(PRP.with_link_mass("link4", 0.16),
                                                    Constant([0.1, 1.0, 0.05]), 5.0)),
              (LINK1, SlotineLi1DoF(LINK1, Sinusoid([0.0], [0.5], [1.0]), 1.0, 1.0, [1.0, 1.0, 1.0]))]
     for plant, controller in cases:
-        assert type(controller).entry is not None
         plain = _without_entry(controller)
-        assert _own_entry(type(plain)) is None
         kwargs = dict(q0=np.zeros(plant.n), t_final=0.3, dt=1e-3, method=method)
+        entries.clear()
         with_entry, by_address = simulate(plant, controller, **kwargs), simulate(plant, plain, **kwargs)
+        assert entries == [generated_entry(type(controller).law), None] and entries[0] is not None
         assert np.abs(with_entry.q[-1] - with_entry.q[0]).max() > 1e-3   # the arm moved
         for name, array in with_entry.groups().items():
             assert array.tobytes() == by_address.groups()[name].tobytes(), (type(controller), name)
 
 
-def test_an_entry_runs_only_with_the_law_it_inlines(monkeypatch):
+def test_an_entry_runs_only_the_law_it_was_generated_for(monkeypatch):
     @njit(cache=False)
     def no_torque(t, q, qd, z, h_e, params, tau_out, zdot_out, signals_out):
         for i in range(q.shape[0]):
@@ -167,13 +175,18 @@ def test_an_entry_runs_only_with_the_law_it_inlines(monkeypatch):
 
     controller = pd(PRP, [25, 0.5, 10], [10, 0.08, 3], [0.1, 1.0, 0.05])
     kwargs = dict(q0=[0, 0, 0], t_final=0.2, dt=1e-3)
-    # A subclass with another law inherits the entry of its parent's law: not used.
+    # A law made inside a function cannot be imported by name: no entry, called by address.
+    assert generated_entry(no_torque) is None
+    # A subclass with another law runs that law, not its parent's entry.
     other = dataclasses.make_dataclass("NoTorque", [], bases=(JointPDGravity,), frozen=True, eq=False,
                                        namespace={"law": no_torque})
-    assert _own_entry(other) is None
+    moved = simulate(PRP, controller, **kwargs)
+    assert np.abs(moved.tau).max() > 0.0
+    fields = {f.name: getattr(controller, f.name) for f in dataclasses.fields(controller)}
+    still = simulate(PRP, other(**fields), **kwargs)
+    assert np.abs(still.tau).max() == 0.0
     # Nor when the law is replaced on the class itself.
     monkeypatch.setattr(JointPDGravity, "law", no_torque)
-    assert _own_entry(JointPDGravity) is None
     result = simulate(PRP, controller, **kwargs)
     assert np.abs(result.tau).max() == 0.0
 

@@ -9,9 +9,10 @@ import os
 import subprocess
 import sys
 
-# What a controller type brings: its own law entry (the law inlined) or its law and the
-# trampoline that calls it, the loop's entry for its parameters, and kernels only that law calls.
-CONTROLLER_OWN = {"joint_inverse_dynamics_entry", "joint_inverse_dynamics_law", "operational_pd_law",
+# What a controller type brings: its law's generated entry (the law inlined, armlab.control.entry)
+# or its law and the trampoline that calls it, the loop's entry for its parameters, and kernels
+# only that law calls.
+CONTROLLER_OWN = {"entry", "joint_inverse_dynamics_law", "operational_pd_law",
                   "rk4_run", "law_trampoline", "log_pose_signals"}
 
 # Run in a fresh process: one that ran other simulations before has their versions already.

@@ -44,11 +44,9 @@ import numpy as np
 from numba import njit
 
 from armlab.control.base import Controller, ProtocolError, Signal
-from armlab.control.entry import law_entry, law_views
 from armlab.control.gains import gain_matrix
 from armlab.control.joint_space import _check_reference
 from armlab.errors import ControllerSpecError
-from armlab.kernels.boundary import borrowed
 from armlab.kernels.dynamics import DynamicsWorkspace, make_workspace, rnea_into
 from armlab.model.robot import Robot, RobotArrays
 from armlab.references.joint import JointReference, reference_into
@@ -97,13 +95,6 @@ def slotine_li_1dof_law(t, q, qd, z, h_e, params, tau_out, zdot_out, signals_out
     signals_out[3], signals_out[4], signals_out[5] = Y[0], Y[1], Y[2]
 
 
-@law_entry(slotine_li_1dof_law)
-def slotine_li_1dof_entry(cp, law, t, work, n, k, s):
-    """(C4), (C5) of the 1-DoF link as the simulation loop calls it (``Controller.entry``)."""
-    q, qd, z, h_e, tau_out, zdot_out, signals_out = law_views(borrowed(work), n, k, s)
-    slotine_li_1dof_law(t, q, qd, z, h_e, borrowed(cp[0]), tau_out, zdot_out, signals_out)
-
-
 @scenario_type("slotine_li_1dof")
 @dataclass(frozen=True, eq=False)
 class SlotineLi1DoF(Controller):
@@ -124,7 +115,6 @@ class SlotineLi1DoF(Controller):
     gamma: np.ndarray
     initial_estimate: np.ndarray = (0.2, 0.1, 0.0)
     law = slotine_li_1dof_law
-    entry = slotine_li_1dof_entry
 
     def __post_init__(self):
         if self.model.n != 1:

@@ -14,11 +14,10 @@ import numpy as np
 from numba import njit, types
 
 from armlab.control.base import Controller, ProtocolError, Signal
-from armlab.control.entry import law_entry, law_views
 from armlab.control.gains import gain_matrix
 from armlab.dynamics import packed_copy
 from armlab.errors import ControllerSpecError
-from armlab.kernels.boundary import borrowed, call_none, kernel_address
+from armlab.kernels.boundary import call_none, kernel_address
 from armlab.kernels.dynamics import DynamicsWorkspace, gravity_into, make_workspace
 from armlab.kernels.plant import inverse_dynamics_packed, rnea_packed, zero_wrench
 from armlab.model.robot import Robot, RobotArrays
@@ -85,13 +84,6 @@ def joint_pd_gravity_law(t, q, qd, z, h_e, params, tau_out, zdot_out, signals_ou
         signals_out[2 * n + i] = g[i]
 
 
-@law_entry(joint_pd_gravity_law)
-def joint_pd_gravity_entry(cp, law, t, work, n, k, s):
-    """(C1) as the simulation loop calls it (``Controller.entry``)."""
-    q, qd, z, h_e, tau_out, zdot_out, signals_out = law_views(borrowed(work), n, k, s)
-    joint_pd_gravity_law(t, q, qd, z, h_e, borrowed(cp[0]), tau_out, zdot_out, signals_out)
-
-
 @scenario_type("joint_pd_gravity")
 @dataclass(frozen=True, eq=False)
 class JointPDGravity(Controller):
@@ -114,7 +106,6 @@ class JointPDGravity(Controller):
     kd: np.ndarray
     compensation: Literal["online", "desired", "none"] = "online"
     law = joint_pd_gravity_law
-    entry = joint_pd_gravity_entry
 
     def __post_init__(self):
         n = self.model.n
@@ -202,13 +193,6 @@ def joint_inverse_dynamics_law(t, q, qd, z, h_e, params, tau_out, zdot_out, sign
         signals_out[3 * n + i] = y[i]
 
 
-@law_entry(joint_inverse_dynamics_law)
-def joint_inverse_dynamics_entry(cp, law, t, work, n, k, s):
-    """(C2) as the simulation loop calls it (``Controller.entry``)."""
-    q, qd, z, h_e, tau_out, zdot_out, signals_out = law_views(borrowed(work), n, k, s)
-    joint_inverse_dynamics_law(t, q, qd, z, h_e, borrowed(cp[0]), tau_out, zdot_out, signals_out)
-
-
 @scenario_type("joint_inverse_dynamics")
 @dataclass(frozen=True, eq=False)
 class JointInverseDynamics(Controller):
@@ -245,7 +229,6 @@ class JointInverseDynamics(Controller):
     dynamics: Literal["auto", "closed_form", "numeric"] = "auto"
     bias_model: Robot | None = None
     law = joint_inverse_dynamics_law
-    entry = joint_inverse_dynamics_entry
 
     def __post_init__(self):
         n = self.model.n

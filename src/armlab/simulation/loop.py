@@ -12,18 +12,18 @@ that unboxes its parameters (``rk4_run`` …), and the plant's dynamics can be a
 the signature of ``armlab.kernels.plant.forward_dynamics_packed`` (the general one, or a
 robot's closed form).
 
-A controller class may name its own entry (``Controller.entry``, written next to its law with
-:func:`law_entry` and :func:`law_views`): the law is then compiled inlined into it, and one
-stage passes the loop's scratch array and three sizes instead of seven arrays and the
-parameter tuple by value, ~10% of a PRP run.  Without one, :func:`law_trampoline` calls the
-law through its address.
+A module-level law is called through its generated entry (``armlab.control.entry``): the law
+compiled inlined into a function that receives the loop's scratch array and three sizes
+instead of seven arrays and the parameter tuple by value (1.3–1.5 times faster A6–A8 runs).
+A law without one (``Controller.inline_entry`` False, or not importable by name) is called
+by :func:`law_trampoline` through its address.
 
 The parameters cross into the shared functions as plain tuples (:func:`plain_params`).  numba's
 disk cache keeps every signature a cached function was compiled for in one index, which it
 unpickles whole on every load: one signature naming a class that another process cannot import
 (the NamedTuple of a controller written in a script or a test module) would make every later
 process fail to load the loop.  So the entries (``rk4_run`` …) and the two trampolines see
-plain tuples, and only the law, the environment's law and a controller's own entry, cached in
+plain tuples, and only the law, the environment's law and a law's generated entry, cached in
 their own modules, are compiled for the NamedTuple itself.  A NamedTuple and the plain tuple of
 its fields have the same numba data model (memory layout and calling convention): both read
 the same stack copy and take the same call.
@@ -33,7 +33,7 @@ many arrays cost compile time in every function that receives them.  ``fn`` (int
 holds the addresses, in this order (``FN_*``):
 
     law_entry(cp, law, t, work, n, k, s)       the law on the scratch views of ``work``
-    law(t, q, qd, z, h_e, cparams, tau_out, zdot_out, signals_out)     (0 with an own entry)
+    law(t, q, qd, z, h_e, cparams, tau_out, zdot_out, signals_out)     (0 with an entry)
     env_trampoline(ep, env, t, R_0e, p_0e, v_e, h_e_out)
     env(t, R_0e, p_0e, v_e, eparams, h_e_out)
     forward_dynamics(pp, q, qd, tau, h_e, qdd_out) -> 0 ok | 1 bad length | 2 B not PD
@@ -202,8 +202,8 @@ def addresses(law, env_law, cparams, eparams, forward_dynamics=None, kinetic_ene
     per law, entry, environment, plant kernels and parameter types).
 
     The argument types are those ``stage`` passes; ``forward_dynamics`` and ``kinetic_energy``
-    default to the general kernels of ``armlab.kernels.plant``; ``entry`` is the controller's
-    own entry (the law inlined, see the module docstring), None for :func:`law_trampoline`.
+    default to the general kernels of ``armlab.kernels.plant``; ``entry`` is the law's
+    generated entry (the law inlined, see the module docstring), None for :func:`law_trampoline`.
     A loop run without an environment (``has_env`` False) or without disturbances
     (``has_dist`` False) never calls the kinematics and the environment's law, or the
     disturbance kernel: their slots hold 0 and they are not compiled (several seconds with
@@ -218,7 +218,7 @@ def addresses(law, env_law, cparams, eparams, forward_dynamics=None, kinetic_ene
 
 
 def law_entry_types(cparams_type) -> tuple:
-    """Argument types of a law entry (``law_trampoline`` or a controller's own) for parameters
+    """Argument types of a law entry (``law_trampoline`` or a generated one) for parameters
     of numba type ``cparams_type``."""
     return (types.CPointer(cparams_type), _I64, _F64, _VEC, _I64, _I64, _I64)
 
@@ -246,7 +246,7 @@ def _addresses(law, env_law, cparams, eparams, forward_dynamics, kinetic_energy,
     cplain, eplain = typeof(plain_params(cparams)), typeof(plain_params(eparams))
     fd = forward_dynamics_packed if forward_dynamics is None else forward_dynamics
     ke = kinetic_energy_packed if kinetic_energy is None else kinetic_energy
-    # An own entry has the law inlined: the law itself is then never called by address.
+    # An entry has the law inlined: the law itself is then never called by address.
     own = entry is not None
     fn = np.zeros(8, dtype=np.int64)
     fn[FN_LAW_ENTRY] = (kernel_address(entry, law_entry_types(ctype), none) if own else

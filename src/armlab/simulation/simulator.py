@@ -60,6 +60,7 @@ from numba import TypingError
 
 from armlab.caches import repaired
 from armlab.control.base import Controller, Environment, ProtocolError, Signal
+from armlab.control.entry import generated_entry
 from armlab.control.function import arity, check_params, compile_problem, is_compiled
 from armlab.dynamics import packed_copy
 from armlab.errors import SimulationDiverged, SimulationError, SimulationInterrupted
@@ -200,8 +201,8 @@ class _Setup:
         # A law in plain Python runs in armlab.simulation.python_loop (same step, slower).
         self.python_law = None if is_compiled(law) else law
         self.law = None if self.python_law is not None else _compiled(law, f"{type(controller).__name__}.law")
-        entry = _own_entry(type(controller)) if self.python_law is None else None
-        self.entry = None if entry is None else _compiled(entry, f"{type(controller).__name__}.entry")
+        inline = self.python_law is None and getattr(type(controller), "inline_entry", True)
+        self.entry = generated_entry(self.law) if inline else None
         self.env_law = _compiled(self.env_law, f"{type(environment).__name__}.law")
         self.rows = self.n_steps // self.log_every + 1
         self.layout = loop.log_layout([s.width for s in self.signals],
@@ -318,15 +319,6 @@ def _compiled(law, what):
         raise ProtocolError(f"{what}: {law!r} is not a numba.njit function")
     return law
 
-
-def _own_entry(cls):
-    """The class's ``entry`` if it was made for the class's ``law`` (``law_entry``), else None:
-    a subclass that changes the law, or a law replaced on the class, must not run the law an
-    entry inlined."""
-    entry = getattr(cls, "entry", None)
-    if entry is not None and getattr(entry, "inlined_law", None) is cls.law:
-        return entry
-    return None
 
 
 def _names(given, k: int, stem: str) -> tuple[str, ...]:

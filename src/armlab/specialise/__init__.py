@@ -18,11 +18,12 @@ from armlab.specialise.closed_form import (
     chosen_module,
     closed_form_module,
     closed_form_status,
+    generated_module,
     inverse_dynamics_kernel,
     plant_kernels,
     robot_key,
 )
 
 __all__ = ["DYNAMICS_CHOICES", "ClosedFormUnavailable", "cache_dir", "cached_module",
-           "choice_problem", "chosen_module", "closed_form_module", "closed_form_status",
+           "choice_problem", "chosen_module", "closed_form_module", "closed_form_status", "generated_module",
            "inverse_dynamics_kernel", "plant_kernels", "robot_key"]

@@ -79,6 +79,7 @@ DYNAMICS_CHOICES = ("auto", "closed_form", "numeric")
 # The outcome for each robot key met in this process: its checked module, or why there is none.
 _OUTCOMES: dict = {}
 _LOCK = threading.Lock()
+_GENERATED_LOCK = threading.Lock()
 # Robot identity -> (robot, generator, key) of the last robots seen (see robot_key).
 _KEYS: dict = {}
 _KEYS_LOCK = threading.Lock()
@@ -161,7 +162,11 @@ def _is_private(folder: Path) -> bool:
 
 def _on_disk(key: str) -> Path | None:
     """The robot's generated module if it has been written already (nothing is created)."""
-    name = f"{_module_name(key)}.py"
+    return _on_disk_named(f"{_module_name(key)}.py")
+
+
+def _on_disk_named(name: str) -> Path | None:
+    """The generated file ``name`` in the cache folder or this user's private one, if it exists."""
     path = cache_dir() / "closed_form" / name
     if path.is_file():
         return path
@@ -223,6 +228,25 @@ def _import(path: Path, name: str):
     sys.modules[name] = module
     spec.loader.exec_module(module)
     return module
+
+
+def generated_module(name: str, source: str):
+    """The generated module ``name`` holding ``source`` (its numba caches beside it), imported from
+    the cache folder; written there first, atomically and with its digest line, when it is
+    missing or damaged.  ``name`` must say what ``source`` depends on (a hash of it): a module on
+    disk under that name is taken as it is.  For other generated code than a robot's (the law
+    entries of ``armlab.control.entry``)."""
+    if name in sys.modules:
+        return sys.modules[name]
+    body = source if source.endswith("\n") else source + "\n"
+    with _GENERATED_LOCK:
+        if name in sys.modules:
+            return sys.modules[name]
+        path = _on_disk_named(f"{name}.py")
+        if path is None or not _intact(path):
+            path = _writable_folder() / f"{name}.py"
+            write_text(path, body + _digest_line(body))
+        return _import(path, name)
 
 
 def _verify(robot: Robot, module) -> str:
