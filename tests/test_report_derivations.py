@@ -100,3 +100,60 @@ def test_a1_shows_inverse_kinematics_and_jacobians_in_both_frames():
         # Σ_0 is turned against Σ_base: the two Jacobians differ, not one of them shown twice.
         assert np.abs(J["0"](q) - J["base"](q)).max() > 0.1
     assert checked == {"0", "base"}
+
+
+def test_a4_is_derived_for_the_actuated_prp_with_its_motors_and_friction():
+    """The seed's A4 is Newton–Euler with motor and friction terms: the PRP report derives it
+    for prp_actuated (the PRP plus motors and friction), the rest for the PRP itself.  The
+    printed τ, B, C q̇ and g are the numeric dynamics of prp_actuated (recursive Newton–Euler,
+    composite-rigid-body B, Christoffel C, rotors and friction included) to 1e-12, and
+    τ − B q̈ − C q̇ − g is the friction F_v q̇ + F_s sgn q̇ of its file."""
+    robot, actuated = armlab.load_robot("prp"), armlab.load_robot("prp_actuated")
+    robots = report.derivation_robots(robot)
+    assert robots["A4"].name == "prp_actuated"
+    assert all(robots[key] is robot for key in ("A1", "A2", "A3", "A5"))
+    (derivation,) = report.derivations(robot, BUDGET, only=("A4",))
+    assert derivation.section.complete and derivation.robot.name == "prp_actuated"
+    items, page = _shown(derivation, robot)
+    assert "Derivation for prp_actuated:" in page
+    sr = derivation.symbolic
+    assert sr.has_motors and sr.has_friction
+    tau = _function(items["τ = NE(q, q̇, q̈; g₀)"].expr, sr, "qd", "qdd")
+    B = _function(items["B = [NE(q, 0, e_i; 0)]"].expr, sr)
+    Cqd = _function(items["C q̇ = NE(q, q̇, 0; 0)"].expr, sr, "qd")
+    g = _function(items["g = NE(q, 0, 0; g₀)"].expr, sr)
+    for label in ("B_NE − B_Lagrange", "(C q̇)_NE − C_Christoffel q̇", "g_NE − g_Lagrange",
+                  "τ_NE − τ_Lagrange"):
+        assert items[label].expr.is_zero_matrix, label
+    F_v = np.array([j.friction.viscous for j in actuated.joints])
+    F_s = np.array([j.friction.coulomb for j in actuated.joints])
+    assert (F_v > 0).all() and (F_s > 0).all()
+    for _ in range(8):
+        q = _random_q(actuated)
+        qd, qdd = RNG.uniform(-2, 2, size=(2, actuated.n))
+        B_q = armlab.inertia_matrix(actuated, q)
+        np.testing.assert_allclose(B(q), B_q, rtol=0, atol=1e-12)
+        np.testing.assert_allclose(Cqd(q, qd).ravel(), armlab.coriolis_matrix(actuated, q, qd) @ qd,
+                                   rtol=0, atol=1e-12)
+        np.testing.assert_allclose(g(q).ravel(), armlab.gravity_torque(actuated, q), rtol=0, atol=1e-12)
+        tau_q = tau(q, qd, qdd).ravel()
+        np.testing.assert_allclose(tau_q, armlab.inverse_dynamics(actuated, q, qd, qdd), rtol=0, atol=1e-12)
+        friction = tau_q - B(q) @ qdd - Cqd(q, qd).ravel() - g(q).ravel()
+        np.testing.assert_allclose(friction, F_v * qd + F_s * np.sign(qd), rtol=0, atol=1e-12)
+        # The rotors' reflected inertias and the motors' masses are in B: not the PRP's B.
+        assert np.abs(np.diag(B_q - armlab.inertia_matrix(robot, q))).min() > 1e-3
+
+
+def test_only_the_same_arm_without_motors_takes_the_actuated_variant():
+    """A robot that already has motors, or whose arm differs from the bundled variant's (here
+    a heavier link 4), derives A4 for itself."""
+    from dataclasses import replace
+
+    prp = armlab.load_robot("prp")
+    assert report.actuated_variant(prp).name == "prp_actuated"
+    assert report.actuated_variant(armlab.load_robot("prp_actuated")) is None
+    assert report.actuated_variant(armlab.load_robot("planar2r")) is None
+    last = prp.links[-1]
+    heavier = prp.replace(links=(*prp.links[:-1], replace(last, inertial=replace(last.inertial, mass=0.3))))
+    assert report.actuated_variant(heavier) is None
+    assert report.derivation_robots(heavier)["A4"] is heavier

@@ -3,7 +3,8 @@
 The document has one section per seed assignment that armlab can run for the chosen robot:
 
 * A1–A5 from :func:`armlab.symbolic.sections.derive` (DH tables, transforms, Jacobians, energies,
-  Lagrange and Newton–Euler dynamics, operational-space model) as presentation MathML, with
+  Lagrange and Newton–Euler dynamics, operational-space model) as presentation MathML, A4 for
+  the robot's actuated variant when it has one (``prp_actuated`` for the PRP), with
   the robot drawn with its frames in Σ_base and Σ_0 (the seed's plotTransforms check);
 * A6–A15 from the scenario registry: for every bundled scenario of the robot its description,
   parameters, scope plots and the measured numbers of :mod:`armlab.viz.metrics`, an
@@ -115,8 +116,9 @@ def _drawings(robot: Robot) -> str:
 
 def _derivation_cache(robot: Robot) -> Path:
     """The file that keeps the HTML of ``robot``'s A1–A5 derivations: named by a hash of the
-    robot's numbers and expressions, of every source the HTML depends on (the symbolic model,
-    its rendering, this page's pieces) and of SymPy's version, so that any change derives anew."""
+    numbers and expressions of the robots they are derived for (:func:`derivation_robots`),
+    of every source the HTML depends on (the symbolic model, its rendering, this page's
+    pieces) and of SymPy's version, so that any change derives anew."""
     import hashlib
     from importlib.metadata import version
 
@@ -124,7 +126,9 @@ def _derivation_cache(robot: Robot) -> Path:
 
     package = Path(__file__).resolve().parents[1]
     # SymPy's version from its metadata: importing SymPy costs seconds a cached report saves.
-    digest = hashlib.sha256(robot_key(robot).encode() + version("sympy").encode())
+    digest = hashlib.sha256(version("sympy").encode())
+    for subject in {id(r): r for r in derivation_robots(robot).values()}.values():
+        digest.update(robot_key(subject).encode())
     for path in [*sorted((package / "symbolic").glob("*.py")), package / "viz" / "html.py", Path(__file__)]:
         digest.update(path.read_bytes())
     return cache_dir() / "report" / f"derivations_{digest.hexdigest()[:24]}.json"
@@ -162,11 +166,53 @@ def _cached_symbolic_sections(robot: Robot, progress: tqdm, budget: float | None
     return sections
 
 
+def actuated_variant(robot: Robot) -> Robot | None:
+    """The bundled robot ``<name>_actuated`` when it is ``robot`` with motors and friction
+    added (:func:`same_arm`: ``prp_actuated`` for ``prp``) and ``robot`` itself has neither;
+    else None."""
+    from armlab.model.robot import Friction, Motor
+    from armlab.robots import bundled_robot_names
+
+    name = f"{robot.name}_actuated"
+    if name not in bundled_robot_names() or any(
+            j.motor != Motor() or j.friction != Friction() for j in robot.joints):
+        return None
+    variant = load_robot(name)
+    return variant if same_arm(robot, variant) else None
+
+
+def same_arm(a: Robot, b: Robot) -> bool:
+    """Whether ``a`` and ``b`` have the same joints (kinds, P_i, S_i, offsets), links (masses,
+    centres of mass, inertia tensors), gravity, base and tool: differ at most in their motors,
+    friction, limits and parameters."""
+    frames = ("gravity", "base", "tool")
+    if a.n != b.n or not all(np.array_equal(getattr(a, f), getattr(b, f)) for f in frames):
+        return False
+    for i, j in zip(a.joints, b.joints, strict=True):
+        if ((i.name, i.kind, i.offset, i.dh) != (j.name, j.kind, j.offset, j.dh)
+                or not (np.array_equal(i.before, j.before) and np.array_equal(i.after, j.after))):
+            return False
+    return all(k.inertial.mass == m.inertial.mass and np.array_equal(k.inertial.com, m.inertial.com)
+               and np.array_equal(k.inertial.inertia, m.inertial.inertia)
+               for k, m in zip(a.links, b.links, strict=True))
+
+
 def derivation_robots(robot: Robot) -> dict[str, Robot]:
-    """The robot each of A1–A5 is derived for: ``robot``."""
+    """The robot each of A1–A5 is derived for: ``robot``, except A4 for its actuated variant
+    (:func:`actuated_variant`) when it has one.  The seed's A4 asks for the Newton–Euler
+    equations with the motor and friction terms,
+
+        τ_i = zᵀ μ_i | zᵀ f_i + k_rᵢ I_mᵢ ṡ_i + F_vᵢ q̇_i + F_sᵢ sgn q̇_i                   (N1)
+
+    (``armlab.symbolic.newton_euler``), which a robot without motors and friction reduces to
+    its rigid-body part."""
     from armlab.symbolic.sections import ASSIGNMENTS as DERIVED
 
-    return dict.fromkeys(DERIVED, robot)
+    robots = dict.fromkeys(DERIVED, robot)
+    variant = actuated_variant(robot)
+    if variant is not None:
+        robots["A4"] = variant
+    return robots
 
 
 class Derivation(NamedTuple):
