@@ -91,14 +91,14 @@ def test_components_measured_together_as_each_alone_and_by_definition():
 
 
 def test_the_seeds_a7_mismatch_settles_at_its_equilibrium():
-    """B̂ = B, ĝ from m_Link4 = 0.16 kg: the seed's q̃ ≈ (0, −0.113, 0.063), the run and (T1)
-    agree; the whole-model variant settles elsewhere."""
-    for name, seed_figure in (("a7_id_mismatch_regulation", [0.0, -0.113, 0.063]),
+    """B̂ = B, ĝ from m_Link4 = 0.16 kg: the equilibrium of the seed's experiment,
+    q̃ ≈ (0, −0.113, 0.063), where the run and (T1) agree; the whole-model variant settles elsewhere."""
+    for name, expected in (("a7_id_mismatch_regulation", [0.0, -0.113, 0.063]),
                               ("a7_id_mismatch_whole_model_regulation", [0.0, -0.0721, 0.0812])):
         scenario = load_scenario(name)
         q_des = scenario.controller.reference.evaluate(10.0)[0]
         predicted = computed_torque_equilibrium(scenario.plant, scenario.controller, q_des)
-        np.testing.assert_allclose(predicted, seed_figure, atol=5e-4)
+        np.testing.assert_allclose(predicted, expected, atol=5e-4)
         run = scenario.run()
         np.testing.assert_allclose(run.signals["q_err"][-1], predicted, atol=1e-6)
     seed = load_scenario("a7_id_mismatch")

@@ -3,6 +3,7 @@ read in the seed's own notation, and against armlab's model."""
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import numpy as np
@@ -60,3 +61,63 @@ def test_seed_a2_b22_in_the_seeds_own_notation():
     assert "Steiner proof" in notes and "counted twice" in notes and "½ m3 a3²" in notes
     prp = (DOCS / "prp-dynamics.md").read_text(encoding="utf-8")
     assert "absent from the seed's term" not in prp and f"{seed * 1e3:.1f}·10⁻³" in prp
+
+
+def test_seed_a4_t43_is_the_inverse_of_t30():
+    """The seed's A4 "T_4^3", rebuilt as the seed prints it, is (T_3^0)⁻¹ of armlab's DH (which
+    is the seed's A1 T_3^0), not the Σ_3 → Σ_e transform (the identity on the PRP); its T_2^1,
+    T_3^2 are armlab's; the A4 page and the report's seed note say so."""
+    from armlab.kinematics import forward_kinematics
+    from armlab.symbolic.kinematics import link_transforms, relative_transforms
+    from armlab.symbolic.model import symbolic_robot
+    from armlab.viz.report import _seed_note_html
+
+    robot = armlab.load_robot("prp")
+    sr = symbolic_robot(robot)
+    T30 = link_transforms(sr)[-1]
+    names = {str(s): s for s in T30.free_symbols}
+    L2, L3, L4, d1, d3, th = (names[k] for k in ("L2", "L3", "L4", "d1", "d3", "theta2"))
+    c, s = sp.cos(th), sp.sin(th)
+    seed_T21 = sp.Matrix([[c, 0, -s, 0], [s, 0, c, 0], [0, -1, 0, L3], [0, 0, 0, 1]])
+    seed_T32 = sp.Matrix([[0, -1, 0, 0], [-1, 0, 0, 0], [0, 0, -1, d3 - L4 / 2], [0, 0, 0, 1]])
+    seed_T43 = sp.Matrix([[0, 0, 1, -L2 / 2 - L3 - d1], [-c, -s, 0, 0], [s, -c, 0, d3 - L4 / 2],
+                          [0, 0, 0, 1]])
+    seed_T30 = sp.Matrix([[0, -c, s, s * (L4 / 2 - d3)], [0, -s, -c, -c * (L4 / 2 - d3)],
+                          [1, 0, 0, L2 / 2 + L3 + d1], [0, 0, 0, 1]])
+    zero = sp.zeros(4)
+    A = relative_transforms(sr)
+    assert sp.simplify(A[1] - seed_T21) == zero and sp.simplify(A[2] - seed_T32) == zero
+    assert sp.simplify(T30 - seed_T30) == zero
+    assert sp.simplify(seed_T43 - T30.inv()) == zero
+    assert sp.simplify(seed_T43 * T30) == sp.eye(4)
+    assert sr.tool == sp.eye(4) and sp.simplify(seed_T43 - sr.tool) != zero
+    # Numerically too, against the numeric kinematics at a pose that is not special.
+    q = np.array([0.07, 0.9, 0.12])
+    values = {d1: q[0], th: q[1], d3: q[2], **{names[k]: robot.parameters[k] for k in ("L2", "L3", "L4")}}
+    numeric = np.array(seed_T43.subs(values).evalf(), dtype=float)
+    np.testing.assert_allclose(numeric, np.linalg.inv(forward_kinematics(robot, q, frame="0")), atol=1e-12)
+
+    a4 = (DOCS / "A4-newton-euler.md").read_text(encoding="utf-8")
+    notes = " ".join(a4[a4.index("## Where the seed's algebra differs"):].split())
+    assert "has no counterpart" not in notes
+    assert "(T_3^0)⁻¹ = T_0^3" in notes and "base-to-Σ_3 transform" in notes
+    assert "(−L2/2 − L3 − d1, 0, d3 − L4/2)" in notes and "R_4^3 = I" in notes
+    report = " ".join(_seed_note_html(4).split())
+    assert "(T_3^0)⁻¹ = T_0^3" in report and "has no counterpart" not in report
+
+
+def test_seed_a7_mismatch_equilibrium_is_not_called_a_seed_figure():
+    """The seed gives no value for its A7 mismatch's steady state: the scenarios, the A7 page
+    and the report's A7 articles call (0, −0.113, 0.063) the equilibrium of the seed's
+    experiment, never the seed's figure."""
+    from armlab.viz.experiments import experiment_from_scenario
+    from armlab.viz.report import _experiment_html, _seed_note_html
+
+    old = re.compile(r"seed(?:'|’|&#x27;)s (?:own )?(?:figure|number)", re.IGNORECASE)
+    for name in ("a7_id_mismatch", "a7_id_mismatch_regulation"):
+        rendered = _experiment_html(experiment_from_scenario(name)).replace("&#x27;", "'")
+        assert "(0, −0.113, 0.063), the equilibrium of the seed's experiment" in rendered
+        assert not old.search(rendered)
+    a7 = " ".join((DOCS / "A7-inverse-dynamics.md").read_text(encoding="utf-8").split())
+    assert "(0, −0.113 rad, 0.063 m), the equilibrium of the seed's experiment" in a7
+    assert not old.search(a7) and not old.search(_seed_note_html(7))
