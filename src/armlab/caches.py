@@ -61,7 +61,8 @@ def cache_folders() -> list[Path]:
     """Folders that may hold numba cache files of armlab's kernels and generated modules."""
     from armlab.specialise.closed_form import _private_folder, cache_dir
 
-    folders = [_PACKAGE, cache_dir() / "closed_form", _private_folder()]
+    folders = [_PACKAGE, cache_dir() / "closed_form", _private_folder(), cache_dir() / "law_entries",
+               _private_folder("law_entries")]
     numba_dir = os.environ.get("NUMBA_CACHE_DIR")
     if numba_dir:
         folders.append(Path(numba_dir))

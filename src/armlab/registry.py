@@ -26,13 +26,28 @@ only among those: "constant" is both a joint reference and a disturbance.
 and that the class holds as two fields, positions and rotation matrices:
 ``poses={"rest_pose": ("rest_position", "rest_rotation")}``.
 
+Classes of other packages
+-------------------------
+A package of one's own (a controller, an environment, a reference) is named in scenario files
+the same way, once the package declares the module that defines it as an entry point of the
+group ``armlab.scenario_types`` in its ``pyproject.toml``::
+
+    [project.entry-points."armlab.scenario_types"]
+    mylaws = "mypackage.laws"
+
+When a file names a type that no loaded class declares, the loader imports every module so
+declared (:func:`load_declared_modules`, once per process) and looks again.  A scenario file
+therefore never names code to run: it chooses among the types that installed packages declare.
+
 This module imports nothing of armlab, so every module that defines such a class can import it.
 """
 
 from __future__ import annotations
 
+import importlib
 import threading
 from dataclasses import dataclass, field, is_dataclass
+from importlib.metadata import entry_points
 
 
 @dataclass(frozen=True)
@@ -99,3 +114,30 @@ def _scenario_types(base: type) -> dict[str, ScenarioType]:
                             f"{other.cls.__qualname__} and {cls.__qualname__}")
         found[declaration.name] = declaration
     return found
+
+
+ENTRY_POINT_GROUP = "armlab.scenario_types"
+"""The entry-point group of packages whose modules declare scenario types (module docstring)."""
+_LOAD_PROBLEMS: list[str] = []
+"""What :func:`load_declared_modules` found: each problem once; empty before the first call."""
+_LOADED = threading.Event()
+_LOAD_LOCK = threading.Lock()  # not _LOCK: the imported modules declare their classes under it
+
+
+def load_declared_modules() -> list[str]:
+    """Import every module that an installed package declares in :data:`ENTRY_POINT_GROUP`
+    (once per process); returns one line per module that could not be imported (the rest are
+    loaded all the same)."""
+    if not _LOADED.is_set():
+        with _LOAD_LOCK:
+            if not _LOADED.is_set():
+                for point in sorted(entry_points(group=ENTRY_POINT_GROUP), key=lambda p: p.name):
+                    try:
+                        importlib.import_module(point.module)
+                    except Exception as error:  # a broken plugin names itself, the rest load
+                        first_line = (str(error).strip().splitlines() or [""])[0]
+                        _LOAD_PROBLEMS.append(f"entry point {point.name} = {point.value!r} "
+                                               f"({ENTRY_POINT_GROUP}) cannot be imported: "
+                                               f"{type(error).__name__}: {first_line}")
+                _LOADED.set()
+    return list(_LOAD_PROBLEMS)

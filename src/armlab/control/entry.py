@@ -6,21 +6,22 @@ gives the views, in the order of the law's arguments around ``params``.
 
 Every compiled law defined at module level gets an *entry*, the function the loop calls: the
 law inlined into a call that receives the loop's scratch array and three sizes instead of
-seven arrays and the parameter tuple by value (:func:`generated_entry`).  The entry is
-generated, always the same three lines::
+seven arrays and the parameter tuple by value (:func:`generated_entry`; a controller class
+whose law it does not pay for says ``inline_entry = False``, ``armlab.control.base``).  The
+entry is generated, always the same three lines::
 
     @njit(cache=True)
     def entry(cp, law, t, work, n, k, s):
         q, qd, z, h_e, tau_out, zdot_out, signals_out = law_views(borrowed(work), n, k, s)
         law_function(t, q, qd, z, h_e, borrowed(cp[0]), tau_out, zdot_out, signals_out)
 
-into a module of armlab's cache folder (``armlab.specialise.generated_module``) whose name
-hashes the law's source file and the sources the law may inline (armlab's kernels, controllers
-and references): numba caches the entry beside it, and an edit of any of those files makes a
-new entry rather than loading one that inlined the old law.  A law that cannot be imported by
-name (made inside a function, typed into an interpreter or a notebook) has no entry: the loop
-then calls it through its address (``armlab.simulation.loop.law_trampoline``), with the same
-results.
+into a module of armlab's cache folder (``law_entries``; ``armlab.specialise.generated_module``)
+whose name hashes the law's source file and the sources the law may inline (armlab's kernels,
+controllers and references): numba caches the entry beside it, and an edit of any of those
+files makes a new entry rather than loading one that inlined the old law.  A law that cannot
+be imported by name (made inside a function, typed into an interpreter or a notebook) has no
+entry: the loop then calls it through its address (``armlab.simulation.loop.law_trampoline``),
+with the same results.
 """
 
 from __future__ import annotations
@@ -70,6 +71,7 @@ def entry(cp, law, t, work, n, k, s):
 _PACKAGE = Path(__file__).resolve().parents[1]            # armlab/
 # What a law may inline besides its own module: the kernels, the controllers and references.
 _INLINED_SOURCES = ("kernels", "control", "references")
+ENTRY_FOLDER = "law_entries"    # of armlab's cache folder
 _ENTRIES: dict = {}
 _LOCK = threading.Lock()
 
@@ -122,5 +124,5 @@ def _generate(law):
         return None
     digest = hashlib.sha256(_armlab_digest() + module.encode() + b"." + name.encode() + law_source)
     generated = generated_module(f"armlab_law_entry_{digest.hexdigest()[:24]}",
-                                 _TEMPLATE.format(module=module, name=name))
+                                 _TEMPLATE.format(module=module, name=name), ENTRY_FOLDER)
     return generated.entry

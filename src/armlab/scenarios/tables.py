@@ -44,7 +44,7 @@ import numpy as np
 from armlab.errors import ArmlabError, ScenarioFileError
 from armlab.model.robot import Robot, nonfinite_part
 from armlab.model.toml_io import MAX_MAGNITUDE, evaluate_expression
-from armlab.registry import ScenarioType, declared, scenario_types
+from armlab.registry import ScenarioType, declared, load_declared_modules, scenario_types
 from armlab.spatial import euler_matrix
 
 MAX_NESTING = 4
@@ -253,9 +253,15 @@ def _choose(base: type, table: dict, file, where) -> ScenarioType:
         return declared(base)
     kinds = scenario_types(base)
     kind = table.get("type")
+    problems = []
+    if isinstance(kind, str) and kind not in kinds:
+        # Perhaps an installed package's type (armlab.registry): its modules load only now.
+        problems = load_declared_modules()
+        kinds = scenario_types(base)
     if not isinstance(kind, str) or kind not in kinds:
+        also = f"; {problems[0]}" if problems else ""
         raise ScenarioFileError(file, f"{where}.type",
-                                f"unknown type {_shorten(kind)} (use {', '.join(kinds)})")
+                                f"unknown type {_shorten(kind)} (use {', '.join(kinds)}){also}")
     return kinds[kind]
 
 

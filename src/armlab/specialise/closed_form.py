@@ -148,10 +148,10 @@ def _module_name(key: str) -> str:
     return f"armlab_closed_form_{key}"
 
 
-def _private_folder() -> Path:
-    """The folder of this user's in the temporary directory used when the cache is not
-    writable."""
-    return Path(tempfile.gettempdir()) / f"armlab-closed-form-{os.getuid()}"
+def _private_folder(kind: str = "closed_form") -> Path:
+    """The folder of this user's in the temporary directory used when the cache folder of
+    ``kind`` is not writable."""
+    return Path(tempfile.gettempdir()) / f"armlab-{kind.replace('_', '-')}-{os.getuid()}"
 
 
 def _is_private(folder: Path) -> bool:
@@ -165,28 +165,29 @@ def _on_disk(key: str) -> Path | None:
     return _on_disk_named(f"{_module_name(key)}.py")
 
 
-def _on_disk_named(name: str) -> Path | None:
-    """The generated file ``name`` in the cache folder or this user's private one, if it exists."""
-    path = cache_dir() / "closed_form" / name
+def _on_disk_named(name: str, kind: str = "closed_form") -> Path | None:
+    """The generated file ``name`` in the cache folder of ``kind`` or this user's private one,
+    if it exists."""
+    path = cache_dir() / kind / name
     if path.is_file():
         return path
-    private = _private_folder()
+    private = _private_folder(kind)
     if (private / name).is_file() and _is_private(private):
         return private / name
     return None
 
 
-def _writable_folder() -> Path:
-    """``cache_dir()/closed_form``, or a private folder of this user's in the temporary
+def _writable_folder(kind: str = "closed_form") -> Path:
+    """``cache_dir()/kind``, or a private folder of this user's in the temporary
     directory when that is not writable (code is imported from it: nobody else may write)."""
-    folder = cache_dir() / "closed_form"
+    folder = cache_dir() / kind
     try:
         folder.mkdir(parents=True, exist_ok=True)
         check_writable_folder(folder)          # leaves nothing behind
     except OSError as error:
         warnings.warn(f"{folder}: cache folder cannot be written ({error.strerror or error}); "
-                      f"using {_private_folder()}", CacheWarning, stacklevel=4)
-        folder = _private_folder()
+                      f"using {_private_folder(kind)}", CacheWarning, stacklevel=4)
+        folder = _private_folder(kind)
         folder.mkdir(mode=0o700, exist_ok=True)
         if not _is_private(folder):
             raise ClosedFormUnavailable(f"{folder}: not a private folder of this user") from None
@@ -230,21 +231,21 @@ def _import(path: Path, name: str):
     return module
 
 
-def generated_module(name: str, source: str):
-    """The generated module ``name`` holding ``source`` (its numba caches beside it), imported from
-    the cache folder; written there first, atomically and with its digest line, when it is
-    missing or damaged.  ``name`` must say what ``source`` depends on (a hash of it): a module on
-    disk under that name is taken as it is.  For other generated code than a robot's (the law
-    entries of ``armlab.control.entry``)."""
+def generated_module(name: str, source: str, kind: str):
+    """The generated module ``name`` holding ``source`` (its numba caches beside it), imported
+    from the cache folder of ``kind`` (``cache_dir() / kind``); written there first, atomically
+    and with its digest line, when it is missing or damaged.  ``name`` must say what ``source``
+    depends on (a hash of it): a module on disk under that name is taken as it is.  For other
+    generated code than a robot's (the law entries of ``armlab.control.entry``)."""
     if name in sys.modules:
         return sys.modules[name]
     body = source if source.endswith("\n") else source + "\n"
     with _GENERATED_LOCK:
         if name in sys.modules:
             return sys.modules[name]
-        path = _on_disk_named(f"{name}.py")
+        path = _on_disk_named(f"{name}.py", kind)
         if path is None or not _intact(path):
-            path = _writable_folder() / f"{name}.py"
+            path = _writable_folder(kind) / f"{name}.py"
             write_text(path, body + _digest_line(body))
         return _import(path, name)
 
