@@ -522,3 +522,32 @@ def test_every_equation_tag_an_experiment_names_is_defined_in_it(report):
         assert named <= given, (block[:120], named - given)
         checked += bool(named)
     assert checked >= 3
+
+
+def test_a_pooled_run_brings_back_everything_evaluate_fills_in_and_its_theory_tags():
+    """`armlab report` evaluates the scenarios in worker processes and copies the results onto
+    the planned experiments: every field that evaluate() fills in comes back, the theory's
+    predictions too, so that an article's (T3) is defined from armlab.theory, not from the
+    notation table's task-space T3 of the same name."""
+    import copy
+    import dataclasses
+
+    from tqdm import tqdm
+
+    from armlab.viz.experiments import experiment_from_scenario
+    from armlab.viz.report import _experiment_html
+    from armlab.viz.report_runs import evaluate, run_all, take_back
+
+    planned = experiment_from_scenario("a11_compliance", 2.0)
+    done = evaluate(copy.copy(planned))
+    assert any("(T3)" in p.quantity for p in done.predicted)
+    target = copy.copy(planned)
+    take_back(target, done)
+    for f in dataclasses.fields(target):
+        if f.name not in ("runner", "predictor"):
+            assert getattr(target, f.name) is getattr(done, f.name), f.name
+
+    run_all([planned], tqdm(disable=True), 2, lambda: None)     # through a worker process
+    assert [p.quantity for p in planned.predicted] == [p.quantity for p in done.predicted]
+    legend = re.search(r'<div class="note tags">(.*?)</div>', _experiment_html(planned), flags=re.S).group(1)
+    assert "<li><b>T3</b> (armlab.theory): Compliance control" in legend

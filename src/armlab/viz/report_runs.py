@@ -170,6 +170,19 @@ def _schedule(planned: list[Experiment]) -> list[Experiment]:
     return first + rest
 
 
+# What :func:`evaluate` fills in, brought back from a worker process onto the planned
+# experiment; ``predicted`` among them: the report prints the theory's rows and names their
+# tags' source (armlab.viz.tags) from it.
+EVALUATED = ("result", "error", "seconds", "predicted", "metrics", "figures", "robot", "plane", "diagram",
+             "diagram_tags")
+
+
+def take_back(target: Experiment, done: Experiment) -> None:
+    """Copy onto ``target`` what a worker's :func:`evaluate` of the same experiment filled in."""
+    for key in EVALUATED:
+        setattr(target, key, getattr(done, key))
+
+
 def run_all(planned: list[Experiment], progress: tqdm, workers: int, main_job, on_result=None) -> dict:
     """Evaluate every experiment (registry ones in ``workers`` processes) while ``main_job()``
     runs here; ``on_result()`` is called here after each pooled experiment comes back.
@@ -209,9 +222,7 @@ def run_all(planned: list[Experiment], progress: tqdm, workers: int, main_job, o
         for future in as_completed(futures):
             done = future.result()
             target = by_name[futures[future]]
-            for key in ("result", "error", "seconds", "metrics", "figures", "robot", "plane", "diagram",
-                        "diagram_tags"):
-                setattr(target, key, getattr(done, key))
+            take_back(target, done)
             progress.set_postfix_str(f"ran {done.name} ({done.seconds:.1f} s)")
             progress.update()
             if on_result is not None:
