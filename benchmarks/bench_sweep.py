@@ -187,6 +187,29 @@ def time_mujoco(spec, threads: int) -> float:
         return time.perf_counter() - start
 
 
+def rollout_batch(spec, runs: range) -> dict:
+    """The batch of :func:`armlab.rollout` for the sweep's runs: joint 2's set points."""
+    import numpy as np
+
+    key = "controller.reference.value[1]"
+    return {key: np.array([spec.parameters(i)[key] for i in runs]), "simulation.t_final": T_FINAL}
+
+
+def time_rollout(spec, cores: int) -> list[tuple[int, float]]:
+    """[(threads, seconds)] of ``armlab.rollout`` over the sweep's runs on 1 and ``cores`` threads."""
+    from armlab.sweep.rollout import rollout
+
+    batch = rollout_batch(spec, range(spec.n_runs))
+    rollout(spec.scenario_file, rollout_batch(spec, range(8)), threads=cores)      # compiled once
+    timings = []
+    for threads in sorted({1, cores}):
+        start = time.perf_counter()
+        table = rollout(spec.scenario_file, batch, threads=threads)
+        timings.append((threads, time.perf_counter() - start))
+        assert table["status"].count("ok") == spec.n_runs
+    return timings
+
+
 def check_agreement(runs=8, dask=True) -> list[str]:
     """The table of one sweep, bit for bit the same on one thread, on every core with another
     chunking, and (``dask`` and installed) on a two-process Dask cluster; returns the
@@ -252,6 +275,7 @@ def main():
         for name, executor in executors:
             seconds, steady, memory = timed(spec, folder, **executor)
             rows.append((name, RUNS, seconds, RUNS / seconds, steady, memory))
+        rollout_rows = time_rollout(spec, cores)
         mujoco_rows = []
         if mujoco_available():
             print(f"MuJoCo agreement: max |Δq| {check_mujoco():.2g}")
@@ -274,6 +298,17 @@ def main():
         threads = 1 if "1 thread" in name else cores
         print(f"  {name:<22}{RUNS:>8}{seconds:>10.1f}{RUNS / seconds:>9.0f}{'':>9}"
               f"{RUNS / seconds / threads / steady_1:>10.2f}   (trajectories only; per one armlab thread)")
+    mujoco_rates = {1 if "1 thread" in name else cores: RUNS / seconds for name, seconds in mujoco_rows}
+    print("\nBatched rollout (armlab.rollout: the same runs, each value checked, metrics, no Parquet "
+          "table), against MuJoCo's rollout on as many threads (trajectories only)")
+    for threads, seconds in rollout_rows:
+        rate = RUNS / seconds
+        versus = (f"{rate / mujoco_rates[threads]:.2f} × MuJoCo's (target ≥ 5)" if threads in mujoco_rates
+                  else "MuJoCo not run")
+        print(f"  {threads} thread{'s' * (threads > 1)}: {RUNS} runs in {seconds:.1f} s, {rate:.0f} runs/s, "
+              f"{versus}")
+    if len(rollout_rows) == 2:
+        print(f"  {cores} threads / 1 thread: {rollout_rows[0][1] / rollout_rows[1][1]:.2f} (target ≥ 1.8)")
     for name, _, _, _, steady, memory in rows[1:]:
         per_core = steady / cores / steady_1
         growth = memory.at(1.0) - memory.at(0.1)

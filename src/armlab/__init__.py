@@ -36,6 +36,7 @@ _HOMES = {
     "armlab.spatial": ("RepresentationSingularityError",),
     "armlab.references.task": ("ForceReference", "PoseReference"),
     "armlab.sweep": ("load_sweep", "read_results", "sweep"),
+    "armlab.sweep.rollout": ("rollout",),
 }
 """Where each public name is defined: module → names."""
 

@@ -73,12 +73,17 @@ def convergence_time(t: np.ndarray, e: np.ndarray, band: float) -> float | None:
 
 def tracking_error(result) -> tuple[np.ndarray | None, np.ndarray | None]:
     """(e, e_p): the run's tracking error (N, k) and its position part (N, 3) if it has one."""
-    signals = result.signals
+    return _tracking(result.signals)
+
+
+def _tracking(signals) -> tuple[np.ndarray | None, np.ndarray | None]:
+    """(e, e_p) of :func:`tracking_error` from the signals (of one run, (R, w), or of several
+    stacked, (N, R, w))."""
     if "q_err" in signals:
         return np.asarray(signals["q_err"]), None
     if "x_err" in signals:
         e = np.asarray(signals["x_err"])
-        return e, e[:, :3]
+        return e, e[..., :3]
     if "p_des" in signals and "p" in signals:
         e = np.asarray(signals["p_des"]) - np.asarray(signals["p"])
         return e, e
@@ -86,74 +91,122 @@ def tracking_error(result) -> tuple[np.ndarray | None, np.ndarray | None]:
 
 
 def _error_metrics(t, e, e_p) -> dict:
+    """The error metrics of N runs at once: e (N, R, k), e_p (N, R, 3) or None; {name: (N,)}.
+
+    Every reduction runs along one run's own samples in the order a single run's would (the
+    components of all runs side by side in ``response``, sums over a run's contiguous rows,
+    norms one run at a time), so a run measured with others gets the bits it gets alone."""
+    runs, _, k = e.shape
     tail = tail_slice(t)
-    r = response(t, e)
-    moving = ~(r.deviation <= FLOOR)            # else constant up to round-off: settled at t₀
-    settle = np.where(moving, r.settling_time, float(t[0]))
-    overshoots = r.overshoot[moving & ~np.isnan(r.overshoot)]
+    r = response(t, np.moveaxis(e, 0, 1).reshape(e.shape[1], runs * k))
+    deviation, settling = r.deviation.reshape(runs, k), r.settling_time.reshape(runs, k)
+    overshoot = r.overshoot.reshape(runs, k)
+    moving = ~(deviation <= FLOOR)            # else constant up to round-off: settled at t₀
+    settle = np.where(moving, settling, float(t[0]))
+    counted = moving & ~np.isnan(overshoot)
+    largest_overshoot = np.where(counted, overshoot, -np.inf).max(axis=1)
+    position = np.full(runs, math.nan)
+    if e_p is not None:
+        means = e_p[:, tail].mean(axis=1)
+        position = np.array([float(np.linalg.norm(row)) for row in means])
     return {
-        "settling_time": math.nan if np.isnan(settle).any() else float(settle.max()),
-        "overshoot": float(overshoots.max()) if overshoots.size else math.nan,
-        "steady_state_error": float(np.abs(r.final).max()),
-        "oscillation": float(r.peak_to_peak.max()),
-        "rms_error": float(np.sqrt(np.mean(np.sum(e ** 2, axis=1)))),
-        "max_error": float(np.max(np.abs(e))),
-        "position_error": math.nan if e_p is None else float(np.linalg.norm(e_p[tail].mean(axis=0))),
+        "settling_time": np.where(np.isnan(settle).any(axis=1), math.nan, settle.max(axis=1)),
+        "overshoot": np.where(counted.any(axis=1), largest_overshoot, math.nan),
+        "steady_state_error": np.abs(r.final).reshape(runs, k).max(axis=1),
+        "oscillation": r.peak_to_peak.reshape(runs, k).max(axis=1),
+        "rms_error": np.sqrt(np.mean(np.sum(e ** 2, axis=2), axis=1)),
+        "max_error": np.max(np.abs(e).reshape(runs, -1), axis=1),
+        "position_error": position,
     }
 
 
-def _torque_metrics(result) -> dict:
-    tau = np.asarray(result.tau)
-    limit = result.meta.get("torque_limit")
-    limits = np.full(result.n, np.inf) if limit is None else np.broadcast_to(
-        np.asarray(limit, dtype=float), (result.n,))
-    step = float(result.t[1] - result.t[0]) if result.t.size > 1 else 0.0
-    at_limit = np.abs(tau) >= limits * (1.0 - 1e-9)
-    command = result.signals.get("tau_cmd")
-    return {"peak_torque": float(np.max(np.abs(tau))),
-            "peak_command": math.nan if command is None else float(np.max(np.abs(command))),
-            "saturation_time": step * int(np.count_nonzero(at_limit.any(axis=1)))}
+def _torque_metrics(t, tau, limits, command) -> dict:
+    """tau (N, R, n) applied torques, limits (N, n) (inf: none), command (N, R, n) or None."""
+    step = float(t[1] - t[0]) if t.size > 1 else 0.0
+    at_limit = np.abs(tau) >= limits[:, None, :] * (1.0 - 1e-9)
+    runs = tau.shape[0]
+    return {"peak_torque": np.max(np.abs(tau).reshape(runs, -1), axis=1),
+            "peak_command": (np.full(runs, math.nan) if command is None
+                             else np.max(np.abs(command).reshape(runs, -1), axis=1)),
+            "saturation_time": step * np.count_nonzero(at_limit.any(axis=2), axis=1)}
 
 
-def _force_metrics(result, tail) -> dict:
-    h = result.signals.get("h_e")
+def _force_metrics(h, desired, tail) -> dict:
+    """h (N, R, 6) contact wrenches or None, desired (N, R, w) force references or None."""
     if h is None:
         return {}
-    force = np.asarray(h)[tail, :3].mean(axis=0)
-    values = {"contact_force": float(np.linalg.norm(force))}
-    ref = next((r for r in FORCE_REFERENCES if r in result.signals), None)
-    if ref is not None:
-        desired = np.asarray(result.signals[ref])[tail, :3].mean(axis=0)
-        values["force_error"] = float(np.linalg.norm(desired - force[:desired.size]))
+    force = h[:, tail, :3].mean(axis=1)
+    values = {"contact_force": np.array([float(np.linalg.norm(row)) for row in force])}
+    if desired is not None:
+        wanted = desired[:, tail, :3].mean(axis=1)
+        values["force_error"] = np.array([float(np.linalg.norm(w - f[:w.size]))
+                                          for w, f in zip(wanted, force, strict=True)])
     return values
 
 
-def _adaptive_metrics(result, t) -> dict:
-    """Y(π̂ − π) of a controller that logs its regressor Y and estimates π̂ as its state."""
-    regressor = result.signals.get("Y")
-    truth = result.meta.get("true_parameters")
-    if regressor is None or truth is None or np.shape(result.z)[1] != np.shape(regressor)[1]:
+def _adaptive_metrics(t, signals, z, truth) -> dict:
+    """Y(π̂ − π) of controllers that log their regressor Y and estimate π̂ as their state:
+    Y (N, R, p), z (N, R, p), truth π (p,) or None."""
+    regressor = signals.get("Y")
+    if regressor is None or truth is None or np.shape(z)[2] != np.shape(regressor)[2]:
         return {}
-    mismatch = np.sum(np.asarray(regressor) * (np.asarray(result.z) - np.asarray(truth, dtype=float)), axis=1)
+    mismatch = np.sum(regressor * (z - np.asarray(truth, dtype=float)), axis=2)
     half = slice(t.size // 2, None)
-    converged = convergence_time(t, mismatch, PARAMETER_BAND)
-    return {"param_error_rms": float(np.sqrt(np.mean(mismatch[half] ** 2))),
-            "param_error_time": math.nan if converged is None else converged}
+    converged = [convergence_time(t, row, PARAMETER_BAND) for row in mismatch]
+    return {"param_error_rms": np.sqrt(np.mean(mismatch[:, half] ** 2, axis=1)),
+            "param_error_time": np.array([math.nan if c is None else c for c in converged])}
 
 
 def measure(result) -> dict[str, float]:
     """{metric: value} of every name in METRIC_NAMES for one run's :class:`SimulationResult`."""
-    values = dict.fromkeys(METRIC_NAMES, math.nan)
-    t = np.asarray(result.t)
-    if t.size == 0:
+    return measure_runs([result])[0]
+
+
+def _limits(result) -> np.ndarray:
+    limit = result.meta.get("torque_limit")
+    return np.full(result.n, np.inf) if limit is None else np.broadcast_to(
+        np.asarray(limit, dtype=float), (result.n,))
+
+
+def measure_runs(results) -> list[dict[str, float]]:
+    """:func:`measure` of each result, those of runs alike (the same status, samples and
+    signals: a sweep's or a batch's) computed together, each to the bits of its own
+    :func:`measure`."""
+    rows = [dict.fromkeys(METRIC_NAMES, math.nan) for _ in results]
+    groups: dict = {}
+    for i, result in enumerate(results):
+        if np.asarray(result.t).size == 0:
+            continue
+        key = (result.status == "ok", np.shape(result.tau), np.shape(result.z),
+               tuple(sorted((name, np.shape(value)) for name, value in result.signals.items())),
+               repr(result.meta.get("true_parameters")))
+        groups.setdefault(key, []).append(i)
+    for (ok, *_), members in groups.items():
+        chosen = [results[i] for i in members]
+        signals = {name: np.stack([np.asarray(r.signals[name]) for r in chosen])
+                   for name in chosen[0].signals}
+        values = measure_alike(np.asarray(chosen[0].t), np.stack([np.asarray(r.tau) for r in chosen]),
+                               np.stack([_limits(r) for r in chosen]), signals,
+                               np.stack([np.asarray(r.z) for r in chosen]), ok,
+                               chosen[0].meta.get("true_parameters"))
+        for position, i in enumerate(members):
+            rows[i].update({name: float(column[position]) for name, column in values.items()})
+    return rows
+
+
+def measure_alike(t, tau, limits, signals, z, ok: bool, truth=None) -> dict[str, np.ndarray]:
+    """{metric: (N,)} of N runs alike, from their stacked logs (C-contiguous arrays): t (R,),
+    tau (N, R, n), limits (N, n) (inf: none), signals {name: (N, R, w)}, z (N, R, k), whether
+    they ended ok, and the true parameters of an adaptive controller (or None)."""
+    values = _torque_metrics(t, tau, limits, signals.get("tau_cmd"))
+    if not ok:
+        values["divergence_time"] = np.full(tau.shape[0], float(t[-1]))
         return values
-    values.update(_torque_metrics(result))
-    if result.status != "ok":
-        values["divergence_time"] = float(t[-1])
-        return values
-    e, e_p = tracking_error(result)
-    if e is not None and e.shape[1] > 0:
-        values.update(_error_metrics(t, e, e_p))
-    values.update(_force_metrics(result, tail_slice(t)))
-    values.update(_adaptive_metrics(result, t))
+    e, e_p = _tracking(signals)
+    if e is not None and e.shape[2] > 0:
+        values.update(_error_metrics(t, e, None if e_p is None else np.ascontiguousarray(e_p)))
+    reference = next((name for name in FORCE_REFERENCES if name in signals), None)
+    values.update(_force_metrics(signals.get("h_e"), None if reference is None else signals[reference],
+                                 tail_slice(t)))
+    values.update(_adaptive_metrics(t, signals, z, truth))
     return values

@@ -1,0 +1,116 @@
+"""The batched rollout (``armlab.rollout``): every row equals the single-run path's row (a sweep's
+``run_one``) to the last bit, on the bundled sweeps whose runs differ only in numbers; a bad value
+makes its own run invalid with the single-run message; fields it cannot batch are named."""
+
+from __future__ import annotations
+
+import math
+import warnings
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+import armlab
+from armlab.errors import SweepFileError
+from armlab.references.joint import Constant
+from armlab.scenarios import ScenarioFileError, load_scenario, scenario_from_table
+from armlab.sweep import bundled_sweep_names, load_sweep, run_one
+from armlab.sweep.metrics import METRIC_NAMES
+from armlab.sweep.rollout import RolloutUnsupported, rollout
+from armlab.sweep.spec import _is_field, assign
+
+FIRST_RUNS = 50
+# Sweeps whose fields reach the compiled inputs through a computation (link masses: the
+# inertias about the joints), which the rollout refuses by name.
+NOT_BATCHED = {"a7_link_masses_montecarlo": "controller.model_link_mass",
+               "a7_mismatch_montecarlo": "controller.bias_model_link_mass.link4"}
+
+
+def _batch(spec, runs):
+    """The field columns of the sweep's first runs (its fixed fields and its axes)."""
+    batch = {key: value for key, value in spec.fixed}
+    rows = [spec.parameters(i) for i in runs]
+    for key in rows[0]:
+        if _is_field(key):
+            batch[key] = np.array([row[key] for row in rows], dtype=float)
+    return batch
+
+
+def _same(a, b) -> bool:
+    return (math.isnan(a) and math.isnan(b)) or a == b
+
+
+@pytest.mark.parametrize("name", bundled_sweep_names())
+def test_every_batched_row_is_the_single_run_row_to_the_last_bit(name):
+    spec = load_sweep(name)
+    runs = range(min(FIRST_RUNS, spec.n_runs))
+    batch = _batch(spec, runs)
+    if name in NOT_BATCHED:
+        with pytest.raises(RolloutUnsupported) as raised:
+            rollout(spec.scenario_file, batch, allow_outside=spec.allow_outside)
+        assert NOT_BATCHED[name] in str(raised.value) and "computation" in str(raised.value)
+        return
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        single = [run_one(spec, i) for i in runs]
+        batched = rollout(spec.scenario_file, batch, threads=2, allow_outside=spec.allow_outside)
+    statuses = [row["status"] for row in single]
+    assert batched["status"] == statuses
+    assert batched["diagnosis"] == [row["diagnosis"] for row in single]
+    for name_ in METRIC_NAMES:
+        mine = batched[name_]
+        for i, row in enumerate(single):
+            assert _same(row[name_], float(mine[i])), (name, i, name_, row[name_], mine[i])
+    assert "ok" in statuses      # the comparison saw measured runs
+
+
+def test_a_bad_value_makes_only_its_own_run_invalid_with_the_single_run_message():
+    spec = load_sweep("a11_stiffness")
+    runs = range(6)
+    batch = _batch(spec, runs)
+    stiffness = batch["environment.stiffness[2]"]
+    stiffness[3] = -5.0                                    # a spring of negative stiffness
+    stiffness[4] = math.nan
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        out = rollout(spec.scenario_file, batch, threads=1)
+    assert out["status"][3] == out["status"][4] == "invalid"
+    _, table = spec.table(3)
+    assign(table, "environment.stiffness[2]", -5.0)
+    with pytest.raises(ScenarioFileError) as single:
+        scenario_from_table(table, spec.scenario_file)
+    assert out["diagnosis"][3] == " ".join(str(single.value).split())
+    assert "stiffness: must be positive semi-definite" in out["diagnosis"][3]
+    assert "environment.stiffness[2]: nan is not a finite number" in out["diagnosis"][4]
+    assert all(math.isnan(out[m][3]) for m in METRIC_NAMES)
+    good = [0, 1, 2, 5]
+    single = [run_one(spec, i) for i in good]
+    assert [out["status"][i] for i in good] == [row["status"] for row in single] == ["ok"] * 4
+    for i, row in zip(good, single, strict=True):
+        assert all(_same(row[m], float(out[m][i])) for m in METRIC_NAMES)
+
+
+def test_threads_change_nothing_and_results_are_kept_on_request():
+    values = np.linspace(0.0, 1.5, 40)
+    batch = {"controller.reference.value[1]": values, "simulation.t_final": 0.1}
+    one = rollout("a6_pd_none", batch, threads=1)
+    two = rollout("a6_pd_none", batch, threads=2, keep_results=True)
+    for name in METRIC_NAMES:
+        np.testing.assert_array_equal(one[name], two[name])
+    result = two["results"][7]
+    assert result.status == "ok" and result.signals["q_des"][-1, 1] == values[7]
+    # The kept result is the run's own simulation (its scenario with that set point).
+    scenario = load_scenario("a6_pd_none")
+    reference = Constant([scenario.controller.reference.value[0], values[7],
+                          scenario.controller.reference.value[2]])
+    direct = armlab.simulate(scenario.plant, replace(scenario.controller, reference=reference),
+                             **{**scenario.simulation, "t_final": 0.1})
+    np.testing.assert_array_equal(direct.q, result.q)
+
+
+def test_what_cannot_be_batched_is_named():
+    with pytest.raises(RolloutUnsupported, match="simulation.t_final.*length"):
+        rollout("a6_pd_none", {"simulation.t_final": [0.1, 0.2]})
+    with pytest.raises(SweepFileError, match="has 3 values"):
+        rollout("a6_pd_none", {"controller.kp": [1, 2], "controller.kd": [1, 2, 3]})
