@@ -17,7 +17,8 @@ from armlab.references.joint import Constant
 from armlab.scenarios import ScenarioFileError, load_scenario, scenario_from_table
 from armlab.sweep import bundled_sweep_names, load_sweep, run_one
 from armlab.sweep.metrics import METRIC_NAMES
-from armlab.sweep.rollout import RolloutUnsupported, rollout
+from armlab.sweep.rollout import RolloutUnsupported, batch_problem, rollout, sweep_rows
+from armlab.sweep.runner import SIGNALS
 from armlab.sweep.spec import _is_field, assign
 
 FIRST_RUNS = 50
@@ -114,3 +115,71 @@ def test_what_cannot_be_batched_is_named():
         rollout("a6_pd_none", {"simulation.t_final": [0.1, 0.2]})
     with pytest.raises(SweepFileError, match="has 3 values"):
         rollout("a6_pd_none", {"controller.kp": [1, 2], "controller.kd": [1, 2, 3]})
+
+
+@pytest.mark.parametrize("name", bundled_sweep_names())
+def test_a_sweep_chunk_runs_as_a_batch_with_the_rows_of_its_runs(name):
+    spec = load_sweep(name)
+    runs = range(min(FIRST_RUNS, spec.n_runs))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        batched = sweep_rows(spec, runs)
+        if name in NOT_BATCHED:
+            assert batched is None
+            assert NOT_BATCHED[name] in batch_problem(spec, runs)
+            return
+        single = [run_one(spec, i) for i in runs]
+    assert batch_problem(spec, runs) == ""
+    assert len(batched) == len(single)
+    for mine, theirs in zip(batched, single, strict=True):
+        assert mine.keys() == theirs.keys()
+        for key, value in theirs.items():
+            if key == SIGNALS:
+                assert mine[key].keys() == value.keys()
+                for column in value:
+                    np.testing.assert_array_equal(mine[key][column], value[column])
+            elif isinstance(value, float):
+                assert _same(value, mine[key]), (name, theirs["run"], key)
+            else:
+                assert mine[key] == value, (name, theirs["run"], key)
+
+
+SMALL_SWEEPS = {
+    "batched": """scenario = "a11_compliance"
+[set]
+"simulation.t_final" = 0.5
+[grid]
+"environment.stiffness[2]" = { values = [10, 100, 1000] }
+""",
+    "one by one": """scenario = "a7_id_mismatch"
+seed = 3
+runs = 3
+[set]
+"simulation.t_final" = 0.5
+[random]
+mismatch = { uniform = [-0.3, 0.3] }
+[derived]
+"controller.bias_model_link_mass.link4" = "0.2*(1 + mismatch)"
+""",
+}
+
+
+@pytest.mark.parametrize("kind", SMALL_SWEEPS)
+def test_armlab_sweep_says_in_one_line_how_its_runs_run(kind, tmp_path):
+    import io
+
+    path = tmp_path / f"{kind.replace(' ', '_')}.toml"
+    path.write_text(SMALL_SWEEPS[kind])
+    log = io.StringIO()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        outcome = armlab.sweep(str(path), tmp_path / "out", threads=1, log=log)
+    lines = [line for line in log.getvalue().splitlines() if "one batch" in line or "on its own" in line]
+    assert len(lines) == 1, log.getvalue()
+    if kind == "batched":
+        assert "the runs of each chunk run as one batch" in lines[0]
+    else:
+        assert "each run set up on its own" in lines[0]
+        assert "controller.bias_model_link_mass.link4" in lines[0] and "computation" in lines[0]
+    table = outcome.to_pandas()
+    assert list(table["status"]) == ["ok"] * 3

@@ -169,12 +169,20 @@ class _Plan:
         if kw["method"] != "rk4" or kw["control_period"] is not None:
             raise RolloutUnsupported(self.source, "simulation.method", "a batch runs RK4 with continuous "
                                      "control (the adaptive method and sampled control run one by one)")
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            setup = _Setup(scenario.plant, scenario.controller, kw["q0"], kw["qd0"], kw["t_final"], kw["dt"],
-                           None, kw["torque_limit"], list(scenario.disturbance) or None,
-                           scenario.environment, kw["log_every"], kw["limit_margin"],
-                           kw["max_kinetic_energy"], kw["dynamics"], kw["joint_limits"])
+        from armlab.scenarios import ScenarioFileError
+        from armlab.simulation import SimulationError
+
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                setup = _Setup(scenario.plant, scenario.controller, kw["q0"], kw["qd0"], kw["t_final"],
+                               kw["dt"], None, kw["torque_limit"], list(scenario.disturbance) or None,
+                               scenario.environment, kw["log_every"], kw["limit_margin"],
+                               kw["max_kinetic_energy"], kw["dynamics"], kw["joint_limits"])
+        except SimulationError as error:
+            # As Scenario.run says it: the field as the file writes it.
+            field, _, reason = str(error).partition(": ")
+            raise ScenarioFileError(scenario.source or scenario.name, f"simulation.{field}", reason) from None
         if setup.python_law is not None:
             raise RolloutUnsupported(self.source, "controller", "a law in plain Python runs one by one")
         cparams = scenario.controller.params()
@@ -500,3 +508,85 @@ def _measure_logs(plan, logs, limits) -> list[dict]:
     values = measure_alike(t, tau, limits, signals, z, True, truth)
     return [{name: float(values[name][r]) if name in values else math.nan for name in METRIC_NAMES}
             for r in range(logs.shape[0])]
+
+
+# ------------------------------------------------------------------------------ sweeps
+_UNBATCHED: dict[str, RolloutUnsupported] = {}
+"""Per sweep fingerprint, why its runs are set up one by one (found once per process)."""
+
+
+def batch_problem(spec, runs) -> str:
+    """'' if the sweep's ``runs`` can run as one batch, else why not (one line)."""
+    try:
+        _sweep_plan(spec, runs)
+    except RolloutUnsupported as error:
+        return str(error)
+    return ""
+
+
+def _sweep_plan(spec, runs):
+    """(plan, parameters of each run, derived problems) of a sweep's runs."""
+    from armlab.sweep.spec import _is_field
+
+    known = _UNBATCHED.get(spec.fingerprint())
+    if known is not None:
+        raise known
+    values = [spec.parameters(i) for i in runs]
+    fields = [key for key in values[0] if _is_field(key)]
+    table = dict(spec.scenario_table)
+    copied = {id(table)}
+    for key, value in spec.fixed:
+        assign(table, key, value, copied)
+    columns = np.array([[row[key] for key in fields] for row in values], dtype=float).reshape(len(values),
+                                                                                              len(fields))
+    derived = {}
+    for r, row in enumerate(values):
+        for key, expression in spec.derived:
+            if not math.isfinite(row[key]):
+                derived[r] = f"{spec.source}: derived.{key}: {expression!r} gives no finite number"
+                break
+    if not fields:
+        raise RolloutUnsupported(spec.source, "sweep", "no field varies")
+    keep = [r for r in range(len(values)) if r not in derived]
+    try:
+        plan = _Plan(Path(spec.scenario_file), table, fields, columns[keep], spec.allow_outside)
+    except RolloutUnsupported as error:
+        # Another chunk's values may change the structure where these did not: only a refusal
+        # that does not depend on the values is kept for the process.
+        if "different places" not in str(error):
+            _UNBATCHED[spec.fingerprint()] = error
+        raise
+    return plan, values, derived, keep
+
+
+def sweep_rows(spec, runs) -> list[dict] | None:
+    """The table rows of the sweep's ``runs`` (``armlab.sweep.runner.run_one``'s, to the bit)
+    computed as one batch, or None when they cannot be (their structure differs)."""
+    from armlab.sweep.runner import SIGNALS, decimated
+
+    runs = list(runs)
+    try:
+        plan, values, derived, keep = _sweep_plan(spec, runs)
+    except RolloutUnsupported:
+        return None
+    rows = []
+    for r, (i, row) in enumerate(zip(runs, values, strict=True)):
+        rows.append({"run": i, **row, "status": "invalid", "diagnosis": derived.get(r, ""),
+                     **dict.fromkeys(METRIC_NAMES, math.nan)})
+    if plan.base_values is None:
+        for k, r in enumerate(keep):
+            rows[r]["diagnosis"] = plan.invalid[k]
+        return rows
+    plan.check_all()
+    valid = [k for k in range(len(keep)) if k not in plan.invalid]
+    keep_results = bool(spec.signals)
+    for k, (status, diagnosis, metrics, result) in zip(valid, _run_part(plan, valid, keep_results),
+                                                        strict=True):
+        row = rows[keep[k]]
+        row.update(metrics)
+        row["status"], row["diagnosis"] = status, diagnosis
+        if keep_results:
+            row[SIGNALS] = decimated(result, spec.signals, spec.signals_every, row["run"])
+    for k, problem in plan.invalid.items():
+        rows[keep[k]]["diagnosis"] = problem
+    return rows

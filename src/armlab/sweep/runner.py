@@ -87,11 +87,16 @@ def decimated(result, names, every: int, index: int) -> dict:
 
 def run_chunk(spec: SweepSpec, chunk: int) -> dict[str, list]:
     """The rows of chunk ``chunk`` as columns ``{name: [values]}`` (a Dask task)."""
+    from armlab.sweep.rollout import sweep_rows
+
     names = ("run", *spec.parameter_names, "status", "diagnosis", *METRIC_NAMES)
     columns = {name: [] for name in names}
     signals = []
-    for index in spec.chunk_runs(chunk):
-        row = run_one(spec, index)
+    # Runs that differ only in numbers run as one batch (armlab.sweep.rollout), the same rows.
+    rows = sweep_rows(spec, spec.chunk_runs(chunk))
+    if rows is None:
+        rows = [run_one(spec, index) for index in spec.chunk_runs(chunk)]
+    for row in rows:
         for name in names:
             columns[name].append(row[name])
         if SIGNALS in row:
@@ -358,6 +363,13 @@ def sweep(spec, out, *, threads: int | None = None, processes: int | None = None
     completed = store.open(overwrite=overwrite)
     pending = [c for c in range(spec.n_chunks) if c not in completed]
     done_runs = sum(len(spec.chunk_runs(c)) for c in completed)
+    if pending and log is not None:
+        from armlab.sweep.rollout import batch_problem
+
+        # Judged on the first runs (a chunk of one run is always its own batch).
+        problem = batch_problem(spec, range(min(spec.n_runs, 64)))
+        print(f"{spec.name}: each run set up on its own ({problem})" if problem else
+              f"{spec.name}: the runs of each chunk run as one batch (armlab.rollout)", file=log, flush=True)
     start = time.perf_counter()
     if not pending:
         executor, counts = "nothing left to run", {}
