@@ -556,3 +556,32 @@ def log_rows(core, fn, ts, xs, pp, cparams, eparams, dist, has_env, call_law, li
     call_none(core, borrowed((fn, ts, xs, pp, stack_address(borrowed(cparams)),
                               stack_address(borrowed(eparams)), dist, has_env, call_law, lim, work,
                               layout, out, start)))
+
+
+@loop_kernel
+def rk4_batch(core, fn, cparams, eparams, targets, bases, work, fset, iset, q_lo, q_hi, x, patch_target,
+              patch_offset, patch_column, values, logs, ends):
+    """:func:`rk4_core` once per row r of ``values`` (``armlab.sweep.rollout``): the flat inputs
+    ``targets`` = (controller parameters, environment parameters, packed plant, x(0), torque
+    limits, disturbance) restored from ``bases``, run r's numbers written into them
+    (``targets[patch_target[p]][patch_offset[p]] = values[r, patch_column[p]]``; the parameter
+    tuples view the first two), the scratch zeroed, then the loop logged into ``logs[r]``;
+    ``ends[r]`` = (status, rows written, step, joint).  One call for a chunk of runs, the GIL
+    released throughout."""
+    cp, ep = stack_address(borrowed(cparams)), stack_address(borrowed(eparams))
+    for r in range(values.shape[0]):
+        for b in range(len(targets)):
+            target, base = targets[b], bases[b]
+            for i in range(target.shape[0]):
+                target[i] = base[i]
+        for p in range(patch_target.shape[0]):
+            targets[patch_target[p]][patch_offset[p]] = values[r, patch_column[p]]
+        for i in range(work.shape[0]):
+            work[i] = 0.0
+        x0 = targets[3]
+        for i in range(x.shape[0]):
+            x[i] = x0[i]
+        status = call_status(core, borrowed((fn, targets[2], cp, ep, targets[5], x, work, fset, iset,
+                                             targets[4], q_lo, q_hi, logs[r])))
+        for i in range(4):
+            ends[r, i] = status[i]

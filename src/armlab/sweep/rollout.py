@@ -21,7 +21,9 @@ value of each field (the scenario built with that value); a value that fails mak
 inputs and its scratch (one ``work`` array, the loop's data), restored before each run, so every
 run computes exactly what its own scenario would: its row of metrics is the single-run path's
 to the last bit (``tests/test_rollout.py``), measured by the same ``armlab.sweep.metrics``.
-The compiled loop releases the GIL: threads run side by side.
+A thread runs its runs :data:`CHUNK` at a time in one compiled call
+(``armlab.simulation.loop.rk4_batch``: restore, write the run's numbers, run), which releases
+the GIL, then measures them together.
 """
 
 from __future__ import annotations
@@ -417,29 +419,32 @@ def _run_part(plan: _Plan, runs: list[int], keep_results: bool) -> list:
     bases = {"controller": inputs["controller"].base, "environment": inputs["environment"].base,
              **{name: inputs[name] for name in ("plant", "x0", "lim", "dist")}}
     fn, _, work = setup.workspace(cparams)
-    cplain, eplain = loop.plain_params(cparams), loop.plain_params(eparams)
+    cparams, eparams = loop.plain_params(cparams), loop.plain_params(eparams)
     core = loop.core_address("rk4")
     fset, iset = setup.settings()
     size = setup.outputs().size
     done: list = []
+    names = ("controller", "environment", "plant", "x0", "lim", "dist")     # loop.rk4_batch's order
+    targets, base = tuple(buffers[name] for name in names), tuple(bases[name] for name in names)
+    patch = [(names.index(name), offset, j) for j, field in enumerate(plan.patches)
+             for name, offsets in field for offset in offsets.tolist()]
+    patch_target, patch_offset, patch_column = (np.array([p[k] for p in patch], dtype=np.int64)
+                                                for k in range(3))
+    x = np.empty_like(buffers["x0"])
     # Measured CHUNK runs at a time: their logs stay in the cache (10 µs a run measured by 256,
     # 50 µs by 3000), and a batch holds CHUNK logs per thread whatever its length.
-    logs, limits = np.empty((CHUNK, size)), np.empty((CHUNK, setup.n))
+    logs, ends = np.empty((CHUNK, size)), np.empty((CHUNK, 4), dtype=np.int64)
+    lim_column = [(offset, j) for target, offset, j in patch if target == names.index("lim")]
     for first in range(0, len(runs), CHUNK):
-        chunk = runs[first:first + CHUNK]
-        ends = []
-        for r, i in enumerate(chunk):
-            for name, buffer in buffers.items():
-                buffer[:] = bases[name]
-            for j, patch in enumerate(plan.patches):
-                for name, offsets in patch:
-                    buffers[name][offsets] = plan.columns[i, j]
-            work[:] = 0.0
-            limits[r] = buffers["lim"]
-            ends.append(loop.rk4_run(core, fn, buffers["plant"], cplain, eplain, buffers["dist"],
-                                     buffers["x0"].copy(), work, fset, iset, buffers["lim"], setup.q_lo,
-                                     setup.q_hi, logs[r]))
-        done += _measured(plan, logs[:len(chunk)], limits[:len(chunk)], ends, keep_results)
+        chunk = np.asarray(runs[first:first + CHUNK], dtype=np.int64)
+        values = np.ascontiguousarray(plan.columns[chunk])
+        loop.rk4_batch(core, fn, cparams, eparams, targets, base, work, fset, iset, setup.q_lo, setup.q_hi,
+                       x, patch_target, patch_offset, patch_column, values, logs, ends)
+        limits = np.repeat(bases["lim"][None, :], len(chunk), axis=0)
+        for offset, j in lim_column:
+            limits[:, offset] = values[:, j]
+        done += _measured(plan, logs[:len(chunk)], limits, [tuple(row) for row in ends[:len(chunk)].tolist()],
+                          keep_results)
     return done
 
 
