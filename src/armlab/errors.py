@@ -86,6 +86,11 @@ class SweepFileError(FileFieldError):
     """A sweep file that cannot define a sweep (its scenario, axes, paths or settings)."""
 
 
+class RolloutUnsupported(SweepFileError):
+    """A batch whose runs differ in more than numbers the compiled loop reads (the message
+    names the field and why): run it run by run (``armlab sweep`` does)."""
+
+
 class FieldPathError(InputError):
     """A sweep's field path that does not fit its scenario's tables (the message says why)."""
 

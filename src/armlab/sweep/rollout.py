@@ -37,7 +37,7 @@ from pathlib import Path
 
 import numpy as np
 
-from armlab.errors import ArmlabError, FieldPathError, SweepFileError
+from armlab.errors import ArmlabError, FieldPathError, RolloutUnsupported, SweepFileError
 from armlab.sweep.metrics import METRIC_NAMES, measure_runs
 from armlab.sweep.spec import assign
 
@@ -45,11 +45,6 @@ __all__ = ["RolloutUnsupported", "rollout"]
 
 CHUNK = 256
 """Runs a thread computes before measuring them together (see ``_run_part``)."""
-
-
-class RolloutUnsupported(SweepFileError):
-    """A batch whose runs differ in more than numbers the compiled loop reads (the message
-    names the field and why): run it run by run (``armlab sweep`` does)."""
 
 
 def _leaves(value, floats: list, others: list):
@@ -516,6 +511,29 @@ def _measure_logs(plan, logs, limits) -> list[dict]:
 
 
 # ------------------------------------------------------------------------------ sweeps
+SIGNALS = "__signals__"
+"""The key of a row's (and a chunk's) decimated signals, stored apart from the table."""
+
+
+def decimated(result, names, every: int, index: int) -> dict:
+    """{column: samples} of every ``every``-th sample of the signals ``names`` of a run:
+    ``run``, ``t`` and one column ``<signal>.<label>`` per component (a signal the run did not
+    log, such as ``tau_cmd`` without a torque limit, has no columns)."""
+    import numpy as np
+
+    keep = slice(0, None, every)
+    t = np.asarray(result.t)[keep]
+    columns = {"run": np.full(t.size, index, dtype=np.int64), "t": t}
+    for name in names:
+        data = getattr(result, name) if name in ("q", "qd", "qdd", "tau", "z") else result.signals.get(name)
+        if data is None:
+            continue
+        data = np.asarray(data)[keep]
+        for k, label in enumerate(result.labels.get(name, ())[:data.shape[1]] or range(data.shape[1])):
+            columns[f"{name}.{label}"] = np.ascontiguousarray(data[:, k])
+    return columns
+
+
 _UNBATCHED: dict[str, RolloutUnsupported] = {}
 """Per sweep fingerprint, why its runs are set up one by one (found once per process)."""
 
@@ -567,8 +585,6 @@ def _sweep_plan(spec, runs):
 def sweep_rows(spec, runs) -> list[dict] | None:
     """The table rows of the sweep's ``runs`` (``armlab.sweep.runner.run_one``'s, to the bit)
     computed as one batch, or None when they cannot be (their structure differs)."""
-    from armlab.sweep.runner import SIGNALS, decimated
-
     runs = list(runs)
     try:
         plan, values, derived, keep = _sweep_plan(spec, runs)

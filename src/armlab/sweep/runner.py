@@ -34,6 +34,7 @@ from dataclasses import dataclass
 from armlab.errors import ArmlabError, SchedulerAddressError, SweepFileError
 from armlab.sweep.address import address_problem
 from armlab.sweep.metrics import METRIC_NAMES, measure
+from armlab.sweep.rollout import SIGNALS, batch_problem, decimated, sweep_rows
 from armlab.sweep.spec import SweepSpec, load_sweep
 from armlab.sweep.store import SweepStore, read_results
 
@@ -62,33 +63,8 @@ def run_one(spec: SweepSpec, index: int) -> dict:
     return row
 
 
-SIGNALS = "__signals__"
-"""The key of a row's (and a chunk's) decimated signals, stored apart from the table."""
-
-
-def decimated(result, names, every: int, index: int) -> dict:
-    """{column: samples} of every ``every``-th sample of the signals ``names`` of a run:
-    ``run``, ``t`` and one column ``<signal>.<label>`` per component (a signal the run did not
-    log, such as ``tau_cmd`` without a torque limit, has no columns)."""
-    import numpy as np
-
-    keep = slice(0, None, every)
-    t = np.asarray(result.t)[keep]
-    columns = {"run": np.full(t.size, index, dtype=np.int64), "t": t}
-    for name in names:
-        data = getattr(result, name) if name in ("q", "qd", "qdd", "tau", "z") else result.signals.get(name)
-        if data is None:
-            continue
-        data = np.asarray(data)[keep]
-        for k, label in enumerate(result.labels.get(name, ())[:data.shape[1]] or range(data.shape[1])):
-            columns[f"{name}.{label}"] = np.ascontiguousarray(data[:, k])
-    return columns
-
-
 def run_chunk(spec: SweepSpec, chunk: int) -> dict[str, list]:
     """The rows of chunk ``chunk`` as columns ``{name: [values]}`` (a Dask task)."""
-    from armlab.sweep.rollout import sweep_rows
-
     names = ("run", *spec.parameter_names, "status", "diagnosis", *METRIC_NAMES)
     columns = {name: [] for name in names}
     signals = []
@@ -303,6 +279,14 @@ a time, and threads that wait for it cost more than they overlap when the loop i
 1500 0.94 / 1.13, 3000 1.20 / 1.13, 6000 1.73 / 1.25, 12000 2.70 / 2.03)."""
 
 
+def _say_how_runs_run(spec: SweepSpec, log) -> None:
+    """One line: whether the runs of a chunk run as one batch, or why each is set up on its own
+    (judged on the first runs; a chunk of one run is always its own batch)."""
+    problem = batch_problem(spec, range(min(spec.n_runs, 64)))
+    print(f"{spec.name}: each run set up on its own ({problem})" if problem else
+          f"{spec.name}: the runs of each chunk run as one batch (armlab.rollout)", file=log, flush=True)
+
+
 def default_executor(spec: SweepSpec) -> tuple[int, int | None]:
     """(threads, processes) of a sweep with no executor chosen: one local process per core
     from :data:`PROCESS_RUNS` runs on (on a machine with several cores), else local threads —
@@ -363,13 +347,6 @@ def sweep(spec, out, *, threads: int | None = None, processes: int | None = None
     completed = store.open(overwrite=overwrite)
     pending = [c for c in range(spec.n_chunks) if c not in completed]
     done_runs = sum(len(spec.chunk_runs(c)) for c in completed)
-    if pending and log is not None:
-        from armlab.sweep.rollout import batch_problem
-
-        # Judged on the first runs (a chunk of one run is always its own batch).
-        problem = batch_problem(spec, range(min(spec.n_runs, 64)))
-        print(f"{spec.name}: each run set up on its own ({problem})" if problem else
-              f"{spec.name}: the runs of each chunk run as one batch (armlab.rollout)", file=log, flush=True)
     start = time.perf_counter()
     if not pending:
         executor, counts = "nothing left to run", {}
@@ -382,6 +359,7 @@ def sweep(spec, out, *, threads: int | None = None, processes: int | None = None
                       f"({sum(client.nthreads().values())} worker threads); "
                       f"dashboard {client.dashboard_link}",
                       file=log, flush=True)
+                _say_how_runs_run(spec, log)
             bar = _progress(spec.n_runs, done_runs, spec.name, progress)
             try:
                 counts = _dask(spec, store, pending, client, bar)
@@ -399,6 +377,7 @@ def sweep(spec, out, *, threads: int | None = None, processes: int | None = None
         if log is not None:
             print(f"{spec.name}: {spec.n_runs} runs in {spec.n_chunks} chunks on {executor}", file=log,
                   flush=True)
+            _say_how_runs_run(spec, log)
         bar = _progress(spec.n_runs, done_runs, spec.name, progress)
         try:
             counts = _local(spec, store, pending, threads, bar, processes)
