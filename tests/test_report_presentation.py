@@ -210,3 +210,31 @@ def test_a_note_taken_out_of_its_page_points_at_the_page_for_what_stood_above():
     assert "the output above in docs/A6-joint-pd.md gives" in out
     assert "x_d above the surface" in out and "above its rest plane" in out and "above 0.1 m" in out
     assert anchored(out, page) == out  # already anchored: unchanged
+
+
+def test_a_wide_metrics_table_scrolls_in_its_article_and_keeps_a_wrench_s_columns_together():
+    """A contact run's table: h_e gives fy (fx, fz are zero), the rest distance p_e, then the
+    theory's f_e (fx, fy, fz); the force columns are fx, fy, fz side by side, and the table,
+    wider than the article, sits in a box that scrolls sideways."""
+    import re
+
+    from armlab.theory import Prediction
+    from armlab.viz import html
+    from armlab.viz.experiments import Experiment
+    from armlab.viz.report import _experiment_html, metric_table
+
+    force = Prediction("equilibrium contact force f_e", ("fx", "fy", "fz"), np.array([0.0, 1.996, 0.0]),
+                       ("N",) * 3, lambda r: np.array([0.0, 1.996, 0.0]))
+    metrics = measure(_contact_run(), [force])
+    headers, _ = metric_table(metrics)
+    forces = [k for k, h in enumerate(headers) if h in ("fx", "fy", "fz")]
+    assert [headers[k] for k in forces] == ["fx", "fy", "fz"]
+    assert forces == list(range(forces[0], forces[0] + 3)) and headers.index("p_e") > forces[-1]
+
+    exp = Experiment("wide", 11, "A11 — wide", "", [("plant", "prp")], metrics=metrics)
+    page = _experiment_html(exp)
+    tables = re.findall(r"<table[ >]", page)
+    boxed = re.findall(r'<div class="table-scroll"><table[ >]', page)
+    assert len(tables) == 2 and len(boxed) == 2
+    rule = re.search(r"\.table-scroll\s*\{([^}]*)\}", html.STYLE).group(1)
+    assert "overflow-x: auto" in rule and "max-width: 100%" in rule
