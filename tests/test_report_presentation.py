@@ -107,12 +107,39 @@ def test_the_tag_legend_defines_each_tag_from_its_source():
     import armlab.theory
     from armlab.viz.tags import legend
 
-    rows = legend("the law (C2) settles where (T1) says, unlike T_3^0 or C2H", theory={"T1"})
-    assert [(tag, source) for tag, source, _ in rows] == [("C2", "docs/notation.md"), ("T1", "armlab.theory")]
+    rows = legend("the law (C2) settles where (H1) says, x̃ of (T1), unlike T_3^0 or C2H")
+    assert [(tag, source) for tag, source, _ in rows] == [("C2", "docs/notation.md"), ("H1", "armlab.theory"),
+                                                          ("T1", "docs/notation.md")]
     assert rows[0][2] == _notation_row("C2").replace("`", "")
     assert "B̂(q) K_P q̃ + n̂(q, 0) = g(q)" in rows[1][2] and "B̂(q) K_P q̃" in armlab.theory.__doc__
-    # Without a prediction of that tag, T1 is the notation's task-space error.
-    assert legend("x̃ (T1)")[0][1:] == ("docs/notation.md", _notation_row("T1").replace("`", ""))
+    assert rows[2][2] == _notation_row("T1").replace("`", "")
+
+
+def test_every_tag_has_one_definition_source_and_every_prediction_s_tag_is_the_theory_s():
+    """A tag (letter + number) is defined by the notation table or by armlab.theory, never
+    both, and the two sets share no letter; H1–H6 are each stated once in armlab.theory (the
+    statics (H6) too, which a bullet of (H3) used to swallow), and the tag of every prediction
+    the report prints is one of them."""
+    import re
+
+    import armlab.theory
+    from armlab.viz.tags import TAG, notation_tags, theory_tags
+
+    notation, theory = notation_tags(), theory_tags()
+    assert notation and sorted(theory) == [f"H{k}" for k in range(1, 7)]
+    assert not set(notation) & set(theory)
+    assert not {t[0] for t in notation} & {t[0] for t in theory}
+    # Each defining line of armlab.theory's docstring is found once, and each statement is its own.
+    ends = re.findall(r"\s{3,}\((H\d)\)\s*$", armlab.theory.__doc__, flags=re.M)
+    assert sorted(ends) == sorted(theory)
+    assert "closed-loop statics" in theory["H6"] and "x_e = (K_P + K)⁻¹" in theory["H3"]
+    assert "Admittance" not in theory["H4"] and "(H6)" in theory["H3"]
+    # Every tag of a notation row and of the theory is matched by the report's tag pattern.
+    assert all(TAG.fullmatch(tag) for tag in (*notation, *theory))
+    source = open(armlab.theory.__file__, encoding="utf-8").read()
+    printed = set(re.findall(r'Prediction\(f?"[^"]*\((\w\d)[,)]', source)) | set(
+        re.findall(r'tag = "\((\w\d)\)"', source))
+    assert printed and printed <= set(theory), printed - set(theory)
 
 
 def _contact_run(offset: float = 2e-4, force: float = 1.996) -> SimulationResult:

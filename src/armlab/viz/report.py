@@ -52,7 +52,7 @@ from armlab.viz.metrics import Metric
 from armlab.viz.notes import anchored, markdown_html, metric_definitions, seed_notes, source_name
 from armlab.viz.report_runs import run_all
 from armlab.viz.scopes import SCOPE_DPI, scope_png
-from armlab.viz.tags import legend_html, used_tags
+from armlab.viz.tags import legend_html
 from armlab.viz.view_pages import plotly_js, view_iframe, write_assets, write_view_page
 
 ASSIGNMENTS = {
@@ -359,10 +359,8 @@ def _experiment_html(exp: Experiment) -> str:
 
 
 def _tags_html(exp: Experiment, text: str) -> str:
-    """The legend of the equation tags the article's text names (:mod:`armlab.viz.tags`); its
-    theory rows' tags are the theory's."""
-    theory = {tag for p in exp.predicted for tag in used_tags(getattr(p, "quantity", ""))}
-    return legend_html(re.sub(r"<[^>]+>|data:[^\"]+", " ", text), theory)
+    """The legend of the equation tags the article's text names (:mod:`armlab.viz.tags`)."""
+    return legend_html(re.sub(r"<[^>]+>|data:[^\"]+", " ", text))
 
 
 def _comparisons_html(planned: list[Experiment]) -> dict[int, list[str]]:
