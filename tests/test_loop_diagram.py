@@ -130,3 +130,17 @@ def test_run_diagram_writes_the_figure(tmp_path):
                  "--out", str(tmp_path), "--quiet"]) == OK
     with Image.open(tmp_path / "a6_pd_online_loop.png") as image:
         assert image.width > 600 and image.height > 150
+
+
+def test_the_tags_an_arrow_names_reach_the_article_s_legend():
+    """a11_compliance's error arrow reads "x̃ in Σ_d (T1–T4)": the figure's tags include the
+    notation's task-space T1 to T4 (the theory's predictions are H tags), and so does the
+    caption that lists them."""
+    from armlab.viz.loop_diagram import diagram_text
+    from armlab.viz.report_runs import loop_figure
+    from armlab.viz.tags import notation_tags
+
+    diagram = loop_diagram(load_scenario("a11_compliance"))
+    assert "x̃ in Σ_d (T1–T4)" in diagram_text(diagram)
+    png, tags = loop_figure("a11_compliance")
+    assert png and {"C11", "T1", "T2", "T3", "T4", "E2"} <= set(tags) and set(tags) <= set(notation_tags())

@@ -92,7 +92,7 @@ def test_components_measured_together_as_each_alone_and_by_definition():
 
 def test_the_seeds_a7_mismatch_settles_at_its_equilibrium():
     """B̂ = B, ĝ from m_Link4 = 0.16 kg: the equilibrium of the seed's experiment,
-    q̃ ≈ (0, −0.113, 0.063), where the run and (T1) agree; the whole-model variant settles elsewhere."""
+    q̃ ≈ (0, −0.113, 0.063), where the run and (H1) agree; the whole-model variant settles elsewhere."""
     for name, expected in (("a7_id_mismatch_regulation", [0.0, -0.113, 0.063]),
                               ("a7_id_mismatch_whole_model_regulation", [0.0, -0.0721, 0.0812])):
         scenario = load_scenario(name)
@@ -107,7 +107,7 @@ def test_the_seeds_a7_mismatch_settles_at_its_equilibrium():
 
 
 def test_an_exact_model_rests_at_zero_error_as_the_solver_finds():
-    """With B̂ = B and ĝ = g, q̃ = 0 solves (T1) exactly: the equilibrium is zero, bit for bit
+    """With B̂ = B and ĝ = g, q̃ = 0 solves (H1) exactly: the equilibrium is zero, bit for bit
     what SciPy's solver returns from q̃ = 0, and the run settles there."""
     from scipy.optimize import root
 
@@ -133,8 +133,8 @@ def test_compliance_equilibrium_matches_the_run():
     run = scenario.run()
     for prediction in predictions(scenario):
         np.testing.assert_allclose(prediction.measured(run), prediction.values, atol=1e-5)
-    np.testing.assert_allclose(run.signals["p"][-1], rows["equilibrium p_e (T3)"], atol=1e-8)
-    force = rows["equilibrium contact force f_e (T3)"]
+    np.testing.assert_allclose(run.signals["p"][-1], rows["equilibrium p_e (H3)"], atol=1e-8)
+    force = rows["equilibrium contact force f_e (H3)"]
     np.testing.assert_allclose(run.signals["h_e"][-1, :3], force, atol=1e-5)
     x_e, f = compliance_equilibrium([1.0, 2.0], [0.0, 2.0], [1.0, 1.0], [0.0, 0.0])
     np.testing.assert_allclose(x_e, [1.0, 0.5])
@@ -154,7 +154,7 @@ def test_compliance_against_a_wall_rests_where_t3_says(normal):
     wall = PlanarWall(point=[0.0, -0.2, 0.5], normal=normal, stiffness=2e3, damping=50.0)
     scenario = dataclasses.replace(base, environment=wall)
     rows = {p.quantity: p.values for p in predictions(scenario)}
-    x_e, f = rows["equilibrium p_e (T3)"], rows["equilibrium contact force f_e (T3)"]
+    x_e, f = rows["equilibrium p_e (H3)"], rows["equilibrium contact force f_e (H3)"]
     run = scenario.run()
     np.testing.assert_allclose(run.signals["p"][-1], x_e, atol=1e-7)
     np.testing.assert_allclose(run.signals["h_e"][-1, :3], f, atol=1e-4)
@@ -215,7 +215,7 @@ def test_the_seeds_option_3_has_a_single_equilibrium():
 
 
 def test_impedance_residual_vanishes_along_the_run():
-    """(T5) holds along the whole A12 regulation run: the residual is the finite-difference
+    """(H5) holds along the whole A12 regulation run: the residual is the finite-difference
     error, small against the terms it balances."""
     scenario = load_scenario("a12_impedance_regulation")
     (prediction,) = predictions(scenario)
@@ -255,18 +255,18 @@ def test_every_printed_prediction_matches_its_run(name):
 
 
 def test_the_diagonal_pose_is_predicted_by_the_closed_loop_statics():
-    """Σ_d turned by π/4 about z_0 against a spring about Σ_r ∦ Σ_d: (T3) would put the arm at
+    """Σ_d turned by π/4 about z_0 against a spring about Σ_r ∦ Σ_d: (H3) would put the arm at
     (0.0667, −0.2, 0.4) pressing 1.33 N; the PRP cannot turn without moving, and the rest point
     of the closed loop is θ2 = 0.648 rad, p = (0.151, −0.1997, 0.4), f_y = 2.710 N.  The
-    prediction is that rest point, labelled (T6), and the run rests on it."""
+    prediction is that rest point, labelled (H6), and the run rests on it."""
     scenario = load_scenario("a11_compliance_diagonal")
     rows = {p.quantity: p.values for p in predictions(scenario)}
-    assert set(rows) == {"equilibrium p_e (T6)", "equilibrium contact force f_e (T6)"}
-    np.testing.assert_allclose(rows["equilibrium p_e (T6)"], [0.15116, -0.19973, 0.4], atol=2e-5)
-    np.testing.assert_allclose(rows["equilibrium contact force f_e (T6)"], [0.0, 2.7100, 0.0], atol=2e-4)
+    assert set(rows) == {"equilibrium p_e (H6)", "equilibrium contact force f_e (H6)"}
+    np.testing.assert_allclose(rows["equilibrium p_e (H6)"], [0.15116, -0.19973, 0.4], atol=2e-5)
+    np.testing.assert_allclose(rows["equilibrium contact force f_e (H6)"], [0.0, 2.7100, 0.0], atol=2e-4)
     run = scenario.run()
     assert run.q[-1, 1] == pytest.approx(0.6479, abs=1e-4)
-    np.testing.assert_allclose(run.signals["p"][-1], rows["equilibrium p_e (T6)"], atol=1e-8)
+    np.testing.assert_allclose(run.signals["p"][-1], rows["equilibrium p_e (H6)"], atol=1e-8)
 
 
 def test_the_closed_loop_statics_is_the_minimum_of_the_prp_potential():

@@ -86,7 +86,7 @@ def link_masses(tmp_path_factory):
 
 
 def test_link_mass_draws_stay_within_20_percent_and_runs_settle_on_theory(link_masses):
-    """Each run's steady-state error is the rest equilibrium (T1) of its drawn model, solved by
+    """Each run's steady-state error is the rest equilibrium (H1) of its drawn model, solved by
     :func:`armlab.theory.computed_torque_equilibrium` from the robots alone."""
     from armlab.theory import computed_torque_equilibrium
 

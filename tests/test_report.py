@@ -506,7 +506,7 @@ def test_a_report_worker_leaves_when_its_parent_is_killed(tmp_path):
 
 
 def test_every_equation_tag_an_experiment_names_is_defined_in_it(report):
-    """Each article and seed note carries a legend of the tags (C2, E3, T1 …) its text names."""
+    """Each article and seed note carries a legend of the tags (C2, E3, T1, H3 …) its text names."""
     from armlab.viz.tags import notation_tags, theory_tags
 
     defined = set(notation_tags()) | set(theory_tags())
@@ -517,7 +517,7 @@ def test_every_equation_tag_an_experiment_names_is_defined_in_it(report):
     for block in blocks:
         legend = re.search(r'<div class="note tags">(.*?)</div>', block, flags=re.S)
         body = re.sub(r'<div class="note tags">.*?</div>|<[^>]+>|data:[^"]+', " ", block, flags=re.S)
-        named = {tag for tag in re.findall(r"(?<![\w^_])([CKDRSTE]\d{1,2})(?!\w)", body) if tag in defined}
+        named = {tag for tag in re.findall(r"(?<![\w^_])([CKDRSTEH]\d{1,2})(?!\w)", body) if tag in defined}
         given = set(re.findall(r"<li><b>(\w+)</b>", legend.group(1))) if legend else set()
         assert named <= given, (block[:120], named - given)
         checked += bool(named)
@@ -527,8 +527,8 @@ def test_every_equation_tag_an_experiment_names_is_defined_in_it(report):
 def test_a_pooled_run_brings_back_everything_evaluate_fills_in_and_its_theory_tags():
     """`armlab report` evaluates the scenarios in worker processes and copies the results onto
     the planned experiments: every field that evaluate() fills in comes back, the theory's
-    predictions too, so that an article's (T3) is defined from armlab.theory, not from the
-    notation table's task-space T3 of the same name."""
+    predictions too, and an article's (H3) is defined from armlab.theory beside the notation
+    table's task-space tags (T1–T4) its loop diagram names."""
     import copy
     import dataclasses
 
@@ -540,7 +540,7 @@ def test_a_pooled_run_brings_back_everything_evaluate_fills_in_and_its_theory_ta
 
     planned = experiment_from_scenario("a11_compliance", 2.0)
     done = evaluate(copy.copy(planned))
-    assert any("(T3)" in p.quantity for p in done.predicted)
+    assert any("(H3)" in p.quantity for p in done.predicted)
     target = copy.copy(planned)
     take_back(target, done)
     for f in dataclasses.fields(target):
@@ -550,4 +550,7 @@ def test_a_pooled_run_brings_back_everything_evaluate_fills_in_and_its_theory_ta
     run_all([planned], tqdm(disable=True), 2, lambda: None)     # through a worker process
     assert [p.quantity for p in planned.predicted] == [p.quantity for p in done.predicted]
     legend = re.search(r'<div class="note tags">(.*?)</div>', _experiment_html(planned), flags=re.S).group(1)
-    assert "<li><b>T3</b> (armlab.theory): Compliance control" in legend
+    assert "<li><b>H3</b> (armlab.theory): Compliance control" in legend
+    assert "<li><b>T1</b> (docs/notation.md): x̃ = −[R_aᵀ(o_e − o_a)" in legend
+    sources = dict(re.findall(r"<li><b>(\w+)</b> \(([^)]+)\)", legend))
+    assert {tag for tag, source in sources.items() if source == "armlab.theory"} == {"H3"}

@@ -107,12 +107,39 @@ def test_the_tag_legend_defines_each_tag_from_its_source():
     import armlab.theory
     from armlab.viz.tags import legend
 
-    rows = legend("the law (C2) settles where (T1) says, unlike T_3^0 or C2H", theory={"T1"})
-    assert [(tag, source) for tag, source, _ in rows] == [("C2", "docs/notation.md"), ("T1", "armlab.theory")]
+    rows = legend("the law (C2) settles where (H1) says, x̃ of (T1), unlike T_3^0 or C2H")
+    assert [(tag, source) for tag, source, _ in rows] == [("C2", "docs/notation.md"), ("H1", "armlab.theory"),
+                                                          ("T1", "docs/notation.md")]
     assert rows[0][2] == _notation_row("C2").replace("`", "")
     assert "B̂(q) K_P q̃ + n̂(q, 0) = g(q)" in rows[1][2] and "B̂(q) K_P q̃" in armlab.theory.__doc__
-    # Without a prediction of that tag, T1 is the notation's task-space error.
-    assert legend("x̃ (T1)")[0][1:] == ("docs/notation.md", _notation_row("T1").replace("`", ""))
+    assert rows[2][2] == _notation_row("T1").replace("`", "")
+
+
+def test_every_tag_has_one_definition_source_and_every_prediction_s_tag_is_the_theory_s():
+    """A tag (letter + number) is defined by the notation table or by armlab.theory, never
+    both, and the two sets share no letter; H1–H6 are each stated once in armlab.theory (the
+    statics (H6) too, which a bullet of (H3) used to swallow), and the tag of every prediction
+    the report prints is one of them."""
+    import re
+
+    import armlab.theory
+    from armlab.viz.tags import TAG, notation_tags, theory_tags
+
+    notation, theory = notation_tags(), theory_tags()
+    assert notation and sorted(theory) == [f"H{k}" for k in range(1, 7)]
+    assert not set(notation) & set(theory)
+    assert not {t[0] for t in notation} & {t[0] for t in theory}
+    # Each defining line of armlab.theory's docstring is found once, and each statement is its own.
+    ends = re.findall(r"\s{3,}\((H\d)\)\s*$", armlab.theory.__doc__, flags=re.M)
+    assert sorted(ends) == sorted(theory)
+    assert "closed-loop statics" in theory["H6"] and "x_e = (K_P + K)⁻¹" in theory["H3"]
+    assert "Admittance" not in theory["H4"] and "(H6)" in theory["H3"]
+    # Every tag of a notation row and of the theory is matched by the report's tag pattern.
+    assert all(TAG.fullmatch(tag) for tag in (*notation, *theory))
+    source = open(armlab.theory.__file__, encoding="utf-8").read()
+    printed = set(re.findall(r'Prediction\(f?"[^"]*\((\w\d)[,)]', source)) | set(
+        re.findall(r'tag = "\((\w\d)\)"', source))
+    assert printed and printed <= set(theory), printed - set(theory)
 
 
 def _contact_run(offset: float = 2e-4, force: float = 1.996) -> SimulationResult:
@@ -210,3 +237,31 @@ def test_a_note_taken_out_of_its_page_points_at_the_page_for_what_stood_above():
     assert "the output above in docs/A6-joint-pd.md gives" in out
     assert "x_d above the surface" in out and "above its rest plane" in out and "above 0.1 m" in out
     assert anchored(out, page) == out  # already anchored: unchanged
+
+
+def test_a_wide_metrics_table_scrolls_in_its_article_and_keeps_a_wrench_s_columns_together():
+    """A contact run's table: h_e gives fy (fx, fz are zero), the rest distance p_e, then the
+    theory's f_e (fx, fy, fz); the force columns are fx, fy, fz side by side, and the table,
+    wider than the article, sits in a box that scrolls sideways."""
+    import re
+
+    from armlab.theory import Prediction
+    from armlab.viz import html
+    from armlab.viz.experiments import Experiment
+    from armlab.viz.report import _experiment_html, metric_table
+
+    force = Prediction("equilibrium contact force f_e", ("fx", "fy", "fz"), np.array([0.0, 1.996, 0.0]),
+                       ("N",) * 3, lambda r: np.array([0.0, 1.996, 0.0]))
+    metrics = measure(_contact_run(), [force])
+    headers, _ = metric_table(metrics)
+    forces = [k for k, h in enumerate(headers) if h in ("fx", "fy", "fz")]
+    assert [headers[k] for k in forces] == ["fx", "fy", "fz"]
+    assert forces == list(range(forces[0], forces[0] + 3)) and headers.index("p_e") > forces[-1]
+
+    exp = Experiment("wide", 11, "A11 — wide", "", [("plant", "prp")], metrics=metrics)
+    page = _experiment_html(exp)
+    tables = re.findall(r"<table[ >]", page)
+    boxed = re.findall(r'<div class="table-scroll"><table[ >]', page)
+    assert len(tables) == 2 and len(boxed) == 2
+    rule = re.search(r"\.table-scroll\s*\{([^}]*)\}", html.STYLE).group(1)
+    assert "overflow-x: auto" in rule and "max-width: 100%" in rule

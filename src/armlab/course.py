@@ -234,7 +234,7 @@ class _Plan:
         self.path = [self.q_s + u * (self.q_g - self.q_s) for u in np.linspace(0.0, 1.0, 11)]
         self.B = inertia_matrix(robot, self.q_g)
         self.coulomb = np.asarray(robot.arrays.coulomb, dtype=float)
-        # K_P,i above 1.5 α, the gravity-gradient bound (T2): option 3 (g(q_des)) is then
+        # K_P,i above 1.5 α, the gravity-gradient bound (H2): option 3 (g(q_des)) is then
         # globally stable and option 2 (no compensation) has a single equilibrium.
         self.alpha = gravity_gradient_bound(robot)
         inertia = np.diag(self.B)

@@ -3,7 +3,9 @@
 At rest (q̇ = 0) the compliance law (C11) against a conservative environment leaves the joint
 torque balance
 
-    J_sᵀ(q) K_P x̃_s(q) + ĝ(q) − g(q) = Jᵀ(q) h_e(q)                                        (T6)
+    J_sᵀ(q) K_P x̃_s(q) + ĝ(q) − g(q) = Jᵀ(q) h_e(q)                                        (H6)
+
+((H6) and (H3) are the tags of :mod:`armlab.theory`'s predictions)
 
 where J_sᵀK_P x̃_s = −∇_q ½ x̃_sᵀK_P x̃_s (x̃ = x_d − x, ∂x̃/∂q = −J_s for a constant x_d) and
 Jᵀh_e = ∇_q U_e (U_e the environment's potential: ½ x_{r,e}ᵀK x_{r,e} for the spring E2, ½ k δ²
@@ -12,8 +14,8 @@ points of
 
     U(q) = ½ x̃_s(q)ᵀ K_P x̃_s(q) + U_e(q),
 
-and the stable ones its minima.  (T6) holds for any Σ_r, Σ_d and any coupling of orientation
-and position the arm imposes; the closed form (T3) x_e = (K_P + K)⁻¹(K_P x_d + K x_r) is its
+and the stable ones its minima.  (H6) holds for any Σ_r, Σ_d and any coupling of orientation
+and position the arm imposes; the closed form (H3) x_e = (K_P + K)⁻¹(K_P x_d + K x_r) is its
 special case where the arm can take every pose that formula asks for (Σ_r ∥ Σ_d, a reachable
 x_e).  Everything here is computed from the forward kinematics and the potentials alone
 (SciPy's minimiser on finite-difference gradients), not from the compiled law, so that a run
@@ -34,14 +36,14 @@ from armlab.kinematics import forward_kinematics
 from armlab.spatial import euler_from_matrix
 
 STEP = 1e-6   # [m | rad] central-difference step of the gradients
-GRADIENT_TOLERANCE = 1e-9   # [N | N·m] largest joint residual of (T6) accepted as a rest point
+GRADIENT_TOLERANCE = 1e-9   # [N | N·m] largest joint residual of (H6) accepted as a rest point
 
 
 @dataclass(frozen=True)
 class Statics:
-    """A rest point of (T6): joints ``q`` (n,), end-effector position ``p_e`` (3,) [m] in Σ_0,
+    """A rest point of (H6): joints ``q`` (n,), end-effector position ``p_e`` (3,) [m] in Σ_0,
     the force ``f_e`` (3,) [N] the end effector exerts on the environment (Σ_0) and the largest
-    joint residual of (T6) ``residual`` [N | N·m] at ``q``."""
+    joint residual of (H6) ``residual`` [N | N·m] at ``q``."""
 
     q: np.ndarray
     p_e: np.ndarray
@@ -102,11 +104,11 @@ def environment_force(environment, T_0e: np.ndarray) -> np.ndarray:
 
 
 def compliance_statics(plant, controller, environment, q0) -> Statics:
-    """The rest point of (T6) that the descent of U from ``q0`` (n,) reaches, for a
+    """The rest point of (H6) that the descent of U from ``q0`` (n,) reaches, for a
     :class:`~armlab.control.interaction.ComplianceControl` ``controller`` (a constant
     reference) on ``plant`` against ``environment``.
 
-    U is minimised (BFGS), then the joint residual of (T6) — with the gravity mismatch
+    U is minimised (BFGS), then the joint residual of (H6) — with the gravity mismatch
     ĝ − g of the controller's model, zero for an exact one — is driven to zero by a root
     solve from there.  Raises ArithmeticError when no rest point is found.
     """
@@ -138,6 +140,6 @@ def compliance_statics(plant, controller, environment, q0) -> Statics:
     q = solution.x if np.all(np.isfinite(solution.x)) else descent.x
     worst = float(np.abs(residual(q)).max())
     if worst > GRADIENT_TOLERANCE * max(1.0, float(np.abs(kp).max())):
-        raise ArithmeticError(f"no rest point of (T6) found from q0 (residual {worst:.3g})")
+        raise ArithmeticError(f"no rest point of (H6) found from q0 (residual {worst:.3g})")
     T = forward_kinematics(plant, q, frame="0")
     return Statics(q=q, p_e=T[:3, 3].copy(), f_e=environment_force(environment, T), residual=worst)

@@ -4,32 +4,38 @@ Each function solves the equation the theory gives — an equilibrium, a gain bo
 model terms of ``armlab.dynamics`` alone, never from a run, so that a run can be checked against
 it (the report prints both side by side, :func:`predictions`).
 
+The results are tagged (H1)–(H6), at the end of a line of their bullet; the letter H is no
+other set's (the notation's C, D, E, K, R, S and T of ``docs/notation.md``), so that a tag of
+the report means one thing (:mod:`armlab.viz.tags`).
+
 * Computed torque with a wrong model (A7, law C2) settles where, at rest (q̇ = 0, constant
   q_des, y = K_P q̃),
 
-      B̂(q) K_P q̃ + n̂(q, 0) = g(q),   q = q_des − q̃                                        (T1)
+      B̂(q) K_P q̃ + n̂(q, 0) = g(q),   q = q_des − q̃                                        (H1)
 
   with n̂(q, 0) = ĝ(q) the controller's gravity (from its ``bias_model`` when it has one).
 * PD + g(q_des) (A6 option 3, law C1) is globally asymptotically stable when
   λ_min(K_P) > α,  α ≥ ‖∂g/∂q‖ over the joint space (Tomei 1991; Siciliano et al. §8.5.2):
-  :func:`gravity_gradient_bound` estimates α on a grid of the joint box.                   (T2)
+  :func:`gravity_gradient_bound` estimates α on a grid of the joint box.                   (H2)
 * Compliance control against a spring (A11, law C11, E2) settles at
   x_e = (K_P + K)⁻¹(K_P x_d + K x_r), both stiffnesses in Σ_0's axes (K_P acts in Σ_d's or
   Σ_0's, K in Σ_r's), and presses with f = K (x_e − x_r); against a wall (E4) in contact at
-  rest, the same with K = k n nᵀ and x_r its point (x_e = x_d if that is in free space)   (T3)
-  (T3) is the special case of the closed-loop statics (T6) (:mod:`armlab.statics`) where the
-  arm can take every pose it asks for; when Σ_r ∦ Σ_d, or the arm ties its orientation to its
-  position (the PRP turns only about z_0), it is wrong, and the report prints (T6) instead: the
-  minimum of ½ x̃ᵀK_P x̃ + U_e(q) that the descent from q0 reaches.  (T3) is printed only where it
-  equals (T6).                                                                                (T6)
+  rest, the same with K = k n nᵀ and x_r its point (x_e = x_d if that is in free space).
+  It is the special case of (H6) where the arm can take every pose it asks for; the report
+  prints it only where it equals (H6).                                                       (H3)
+  Admittance control (A13, C13) on a position task rests on it with K_P = K_Pt: the inner
+  loop puts Σ_e on Σ_t, and the admittance rests where K_Pt z̃ = h_e^d.
 * Force control with integral action (A14, A15) reaches f_e = f_d along Image(K): a zero final
   force error, when f_d lies in Image(K) (otherwise the integral of the rest grows without
-  bound and nothing settles).                                                                (T4)
-  Admittance control (A13, C13) on a position task rests on (T3) with K_P = K_Pt: the inner
-  loop puts Σ_e on Σ_t, and the admittance rests where K_Pt z̃ = h_e^d.
+  bound and nothing settles).                                                                (H4)
 * Impedance control (A12, law C12) with an exact model imposes, on the position task in Σ_d,
   M_d x̃̈ + K_D x̃̇ + K_P x̃ = h_A, h_A = R_dᵀ f_e: the residual of that equation along a run
-  is zero (measured by finite differences of the logged x̃, so O(dt²)).                    (T5)
+  is zero (measured by finite differences of the logged x̃, so O(dt²)).                    (H5)
+* Compliance control at rest settles on the closed-loop statics of :mod:`armlab.statics`,
+  J_sᵀ(q) K_P x̃_s(q) + ĝ(q) − g(q) = Jᵀ(q) h_e(q), at the minimum of ½ x̃ᵀK_P x̃ + U_e(q)
+  that the descent from q0 reaches; it holds for any Σ_r and Σ_d, also where (H3) is wrong
+  (Σ_r ∦ Σ_d, or an arm that ties its orientation to its position: the PRP turns only
+  about z_0).                                                                                (H6)
 """
 
 from __future__ import annotations
@@ -46,7 +52,7 @@ from armlab.model.robot import Robot
 
 
 def computed_torque_equilibrium(plant: Robot, controller, q_des) -> np.ndarray:
-    """q̃ = q_des − q at the rest equilibrium (T1) of ``plant`` under a
+    """q̃ = q_des − q at the rest equilibrium (H1) of ``plant`` under a
     :class:`~armlab.control.joint_space.JointInverseDynamics` ``controller``."""
     q_des = np.asarray(q_des, dtype=float)
     model = controller.model
@@ -59,7 +65,7 @@ def computed_torque_equilibrium(plant: Robot, controller, q_des) -> np.ndarray:
 
     start = np.zeros_like(q_des)
     if not np.any(residual(start)):
-        # An exact model: q̃ = 0 solves (T1) exactly, where the solver would stay.  SciPy's
+        # An exact model: q̃ = 0 solves (H1) exactly, where the solver would stay.  SciPy's
         # optimize package is imported only when there is something to solve (0.4 s).
         return start
     from scipy.optimize import root
@@ -74,7 +80,7 @@ def computed_torque_equilibrium(plant: Robot, controller, q_des) -> np.ndarray:
 
 def gravity_gradient_bound(robot: Robot, points_per_joint: int = 9, step: float = 1e-6,
                            samples: int = 4000, seed: int = 0) -> float:
-    """α of (T2): the largest spectral norm of ∂g/∂q (central differences) over the joint box
+    """α of (H2): the largest spectral norm of ∂g/∂q (central differences) over the joint box
     (the limits, ±π for an unlimited revolute joint, ±0.5 m for an unlimited prismatic one):
     on a grid of ``points_per_joint`` values per joint when that has at most ``samples``
     points, else at ``samples`` seeded random points.  A sampled maximum: a lower estimate of
@@ -99,7 +105,7 @@ def gravity_gradient_bound(robot: Robot, points_per_joint: int = 9, step: float 
 
 
 def compliance_equilibrium(kp, stiffness, x_d, x_r):
-    """(x_e, f) of (T3) with K_P and K (3, 3) in one frame's axes (or their diagonals):
+    """(x_e, f) of (H3) with K_P and K (3, 3) in one frame's axes (or their diagonals):
     x_e = (K_P + K)⁻¹(K_P x_d + K x_r), f = K (x_e − x_r)."""
     kp, stiffness = (np.diag(v) if np.ndim(v) == 1 else np.asarray(v, dtype=float)
                      for v in (np.asarray(kp, dtype=float), np.asarray(stiffness, dtype=float)))
@@ -147,7 +153,7 @@ class _FinalMean:
 
 @dataclass(frozen=True)
 class _ImpedanceRMS:
-    """The RMS over a run of the residual of (T5) for ``controller``."""
+    """The RMS over a run of the residual of (H5) for ``controller``."""
 
     controller: object
 
@@ -185,7 +191,7 @@ def image_projector(environment) -> np.ndarray | None:
 
 
 def impedance_residual(result, controller) -> np.ndarray:
-    """(N, 3) residual of (T5) along ``result`` of an impedance ``controller`` with a constant
+    """(N, 3) residual of (H5) along ``result`` of an impedance ``controller`` with a constant
     pose reference: M_d x̃̈ + K_D x̃̇ + K_P x̃ − R_dᵀ f_e, x̃̇ and x̃̈ by central differences."""
     t, e = result.t, result.signals["x_err"][:, :3]
     e_dot = np.gradient(e, t, axis=0)
@@ -199,16 +205,16 @@ def impedance_residual(result, controller) -> np.ndarray:
 
 # How close a run must come to each theory (its units): what a finite, fixed-step run leaves
 # of the limit, measured on the bundled scenarios with margin (tests/test_metrics_theory.py).
-JOINT_TOLERANCE = 1e-3          # [rad | m] rest error (T1): a7_id_mismatch, ending 1 s after its
+JOINT_TOLERANCE = 1e-3          # [rad | m] rest error (H1): a7_id_mismatch, ending 1 s after its
 #                                 last via point, is still 2·10⁻⁴ from it
-POSITION_TOLERANCE = 1e-5       # [m] rest position (T3, T6)
-FORCE_TOLERANCE = 1e-3          # [N] rest contact force (T3, T6), final force error (T4)
-RESIDUAL_TOLERANCE = 1e-2       # [N] RMS of the impedance residual (T5), finite differences
-CLOSED_FORM_AGREEMENT = 1e-8   # [m] (T3) is printed when it lies this close to (T6)
+POSITION_TOLERANCE = 1e-5       # [m] rest position (H3, H6)
+FORCE_TOLERANCE = 1e-3          # [N] rest contact force (H3, H6), final force error (H4)
+RESIDUAL_TOLERANCE = 1e-2       # [N] RMS of the impedance residual (H5), finite differences
+CLOSED_FORM_AGREEMENT = 1e-8   # [m] (H3) is printed when it lies this close to (H6)
 
 
 def _compliance_predictions(scenario) -> list[Prediction]:
-    """Rest position and contact force of a compliance run (T3, or T6 where T3 does not hold)."""
+    """Rest position and contact force of a compliance run (H3, or H6 where H3 does not hold)."""
     from armlab.simulation.environment import PlanarWall
     from armlab.statics import compliance_statics
 
@@ -216,7 +222,7 @@ def _compliance_predictions(scenario) -> list[Prediction]:
     if len(controller.reference.times) != 1:
         return []   # a moving x_d has no rest point
     statics = compliance_statics(scenario.plant, controller, env, scenario.simulation["q0"])
-    tag = "(T6)"
+    tag = "(H6)"
     if {0, 1, 2} <= set(controller.task):
         ref = controller.reference
         if isinstance(env, PlanarWall):
@@ -233,7 +239,7 @@ def _compliance_predictions(scenario) -> list[Prediction]:
         if isinstance(env, PlanarWall) and env.normal @ (env.point - x_e) < 0.0:
             x_e = np.asarray(p_d, dtype=float)   # x_d in free space: no contact
         if np.abs(x_e - statics.p_e).max() <= CLOSED_FORM_AGREEMENT:
-            tag = "(T3)"
+            tag = "(H3)"
     return [Prediction(f"equilibrium p_e {tag}", ("x", "y", "z"), statics.p_e, ("m",) * 3, _FinalMean("p"),
                        tolerance=POSITION_TOLERANCE),
             Prediction(f"equilibrium contact force f_e {tag}", ("fx", "fy", "fz"), statics.f_e, ("N",) * 3,
@@ -241,11 +247,11 @@ def _compliance_predictions(scenario) -> list[Prediction]:
 
 
 def _admittance_predictions(scenario) -> list[Prediction]:
-    """Rest position and contact force of an admittance run on a position task (T3 with K_Pt).
+    """Rest position and contact force of an admittance run on a position task (H3 with K_Pt).
 
     At rest the inner loop has brought Σ_e onto Σ_t (an exact model, a square position task)
     and the admittance rests where K_Pt z̃ = h_e^d; on positions, z̃ = R_dᵀ(p_d − p_e), so
-    K_Pt R_dᵀ(p_d − p_e) = R_dᵀ f_e — (T3) with K_P = R_d K_Pt R_dᵀ, whatever the orientation,
+    K_Pt R_dᵀ(p_d − p_e) = R_dᵀ f_e — (H3) with K_P = R_d K_Pt R_dᵀ, whatever the orientation,
     as long as the environment's force depends on position alone."""
     from armlab.simulation.environment import PlanarWall
 
@@ -263,9 +269,9 @@ def _admittance_predictions(scenario) -> list[Prediction]:
     x_e, f = compliance_equilibrium(kp_t, K, p_d, x_r)
     if isinstance(env, PlanarWall) and env.normal @ (env.point - x_e) < 0.0:
         x_e, f = np.asarray(p_d, dtype=float), np.zeros(3)   # x_d in free space: no contact
-    return [Prediction("equilibrium p_e (T3, K_P = K_Pt)", ("x", "y", "z"), x_e, ("m",) * 3, _FinalMean("p"),
+    return [Prediction("equilibrium p_e (H3, K_P = K_Pt)", ("x", "y", "z"), x_e, ("m",) * 3, _FinalMean("p"),
                        tolerance=POSITION_TOLERANCE),
-            Prediction("equilibrium contact force f_e (T3, K_P = K_Pt)", ("fx", "fy", "fz"), f, ("N",) * 3,
+            Prediction("equilibrium contact force f_e (H3, K_P = K_Pt)", ("fx", "fy", "fz"), f, ("N",) * 3,
                        _FinalMean("h_e", (0, 1, 2)), tolerance=FORCE_TOLERANCE)]
 
 
@@ -291,7 +297,7 @@ def predictions(scenario) -> list[Prediction]:
         e = computed_torque_equilibrium(plant, controller, q_des)
         labels = tuple(j.name for j in plant.joints)
         units = tuple("m" if j.kind == "prismatic" else "rad" for j in plant.joints)
-        return [Prediction("equilibrium q̃ (T1)", labels, e, units, _FinalMean("q_err"),
+        return [Prediction("equilibrium q̃ (H1)", labels, e, units, _FinalMean("q_err"),
                            tolerance=JOINT_TOLERANCE)]
     if isinstance(controller, ComplianceControl) and isinstance(scenario.environment, (Spring, PlanarWall)):
         return _compliance_predictions(scenario)
@@ -304,10 +310,10 @@ def predictions(scenario) -> list[Prediction]:
             # Free space, or f_d outside Image(K): the integral of the unreachable component grows
             # without bound and the arm moves with it, so there is no rest point to predict.
             return []
-        return [Prediction("final force error f_d − f_e along Image(K) (T4)", ("x", "y", "z"), np.zeros(3),
+        return [Prediction("final force error f_d − f_e along Image(K) (H4)", ("x", "y", "z"), np.zeros(3),
                            ("N",) * 3, _ForceErrorInImage(projector), tolerance=FORCE_TOLERANCE)]
     if (isinstance(controller, ImpedanceControl) and len(controller.reference.times) == 1
             and tuple(controller.task) == (0, 1, 2) and controller.frame == "desired"):
-        return [Prediction("impedance residual M_d x̃̈ + K_D x̃̇ + K_P x̃ − h_A (T5), RMS", ("x", "y", "z"),
+        return [Prediction("impedance residual M_d x̃̈ + K_D x̃̇ + K_P x̃ − h_A (H5), RMS", ("x", "y", "z"),
                            np.zeros(3), ("N",) * 3, _ImpedanceRMS(controller), tolerance=RESIDUAL_TOLERANCE)]
     return []

@@ -168,7 +168,7 @@ def experiment_from_scenario(scenario, t_final: float | None = None, *, quick: b
         parameters.append(("report (quick)", f"run shortened to t_final = {short:g} s"))
     number = assignment_number(scenario.assignment) or assignment_number(scenario.name) or 0
     # The theory of the run as it is made: a shortened run is predicted at its own end (the A7
-    # equilibrium (T1) is that of q_des at t_final).
+    # equilibrium (H1) is that of q_des at t_final).
     predicted = scenario if short is None else replace(scenario, simulation={**scenario.simulation,
                                                                               "t_final": short})
     return Experiment(name=scenario.name, assignment=number, title=scenario.title,

@@ -42,12 +42,22 @@ figure.drawing figcaption { max-width: 400px; }
 figure.view3d iframe { display: block; width: 760px; max-width: 100%; height: 610px; border: 0; }
 figure.view3d figcaption { max-width: 760px; }
 figcaption { font-size: 12.5px; color: var(--muted); padding: 4px 2px 0; max-width: 570px; }
+/* A table wider than its box (a metrics table of 13 components is ~1600 px) scrolls inside it
+   rather than running out of the article and off the page. */
+.table-scroll { max-width: 100%; overflow-x: auto; margin: 8px 0; }
+.table-scroll > table { margin: 0; }
 table { border-collapse: collapse; margin: 8px 0; font-size: 13.5px; }
 th, td { border: 1px solid var(--rule); padding: 3px 9px; text-align: left; vertical-align: top; }
 th { background: #f0f3f7; font-weight: 600; }
 td.num { text-align: right; font-variant-numeric: tabular-nums; font-family: "DejaVu Sans Mono", monospace; }
 .tables { display: flex; flex-wrap: wrap; gap: 0 24px; align-items: flex-start; }
 .tables td { max-width: 250px; overflow-wrap: anywhere; }
+/* A metrics table's quantity column stays in view while its components scroll past. */
+.tables table.metrics td:first-child { min-width: 210px; overflow-wrap: normal; }
+table.metrics th:first-child, table.metrics td:first-child { position: sticky; left: 0; z-index: 1;
+  background: #fff; box-shadow: inset -1px 0 0 var(--rule); }
+table.metrics th:first-child { background: #f0f3f7; }
+.table-scroll > table > caption { text-align: left; }
 .tables td.num { font-size: 12.5px; white-space: nowrap; }
 /* A formula too wide for the space beside its label goes under it; one still too wide (a single
    term wider than the page) scrolls inside its box. */
@@ -125,8 +135,10 @@ def figure(uri: str, caption: str, *, kind: str, ident: str) -> str:
             f'<img alt="{escape(caption)}" src="{uri}"><figcaption>{escape(caption)}</figcaption></figure>')
 
 
-def table(headers: list[str], rows: list[list], *, numeric: set[int] = frozenset(), caption: str = "") -> str:
-    """A table; the columns in ``numeric`` are right-aligned."""
+def table(headers: list[str], rows: list[list], *, numeric: set[int] = frozenset(), caption: str = "",
+          kind: str = "") -> str:
+    """A table in a box that scrolls sideways when it is wider than the page; the columns in
+    ``numeric`` are right-aligned, ``kind`` is the table's CSS class."""
     head = "".join(f"<th>{escape(h)}</th>" for h in headers)
     body = []
     for row in rows:
@@ -134,7 +146,13 @@ def table(headers: list[str], rows: list[list], *, numeric: set[int] = frozenset
                         for k, c in enumerate(row))
         body.append(f"<tr>{cells}</tr>")
     cap = f"<caption>{escape(caption)}</caption>" if caption else ""
-    return f"<table>{cap}<thead><tr>{head}</tr></thead><tbody>{''.join(body)}</tbody></table>"
+    opening = f'<table class="{escape(kind)}">' if kind else "<table>"
+    return scrolling(f"{opening}{cap}<thead><tr>{head}</tr></thead><tbody>{''.join(body)}</tbody></table>")
+
+
+def scrolling(table_html: str) -> str:
+    """``table_html`` inside a box as wide as the page at most that scrolls sideways."""
+    return f'<div class="table-scroll">{table_html}</div>'
 
 
 def bracket_matrices(mathml: str) -> str:

@@ -69,6 +69,17 @@ class LoopDiagram:
     signals: tuple[str, ...] = field(default=())
 
 
+def diagram_text(diagram: LoopDiagram) -> str:
+    """Every text the drawing of ``diagram`` shows: its blocks' titles and lines, the blocks
+    above them and the labels of the arrows (where "x̃ in Σ_d (T1–T4)" names its tags)."""
+    parts = [diagram.title]
+    for block in diagram.blocks:
+        parts += [block.title, *block.lines, block.output, block.above_label, block.exchange]
+        if block.above is not None:
+            parts += [block.above.title, *block.above.lines, block.above.output]
+    return " ".join(part for part in parts if part)
+
+
 # ----------------------------------------------------------------------------- numbers
 
 

@@ -81,7 +81,9 @@ def _table(rows: list[str]) -> str:
     body = [r for r in cells[1:] if not all(re.fullmatch(r":?-+:?", c) for c in r)]
     head = "".join(f"<th>{_inline(c)}</th>" for c in cells[0])
     rows_html = "".join("<tr>" + "".join(f"<td>{_inline(c)}</td>" for c in r) + "</tr>" for r in body)
-    return f"<table><thead><tr>{head}</tr></thead><tbody>{rows_html}</tbody></table>"
+    # In the box armlab.viz.html.scrolling draws: a wide table scrolls inside its note.
+    table = f"<table><thead><tr>{head}</tr></thead><tbody>{rows_html}</tbody></table>"
+    return f'<div class="table-scroll">{table}</div>'
 
 
 def markdown_html(text: str) -> str:

@@ -52,7 +52,7 @@ from armlab.viz.metrics import Metric
 from armlab.viz.notes import anchored, markdown_html, metric_definitions, seed_notes, source_name
 from armlab.viz.report_runs import run_all
 from armlab.viz.scopes import SCOPE_DPI, scope_png
-from armlab.viz.tags import legend_html, used_tags
+from armlab.viz.tags import legend_html
 from armlab.viz.view_pages import plotly_js, view_iframe, write_assets, write_view_page
 
 ASSIGNMENTS = {
@@ -278,8 +278,26 @@ def _symbolic_sections(robot: Robot, progress: tqdm,
 # ----------------------------------------------------------------------------- A6–A15
 
 
+# Components printed side by side, in this order, where the first of them comes: a wrench's
+# fy measured by h_e and its fx, fz predicted by the theory are one group of columns.
+COLUMN_GROUPS = (("x", "y", "z"), ("φ1", "φ2", "φ3"), ("fx", "fy", "fz", "mx", "my", "mz"))
+
+
+def column_order(components: list[str]) -> list[str]:
+    """``components`` in order of first appearance, those of a :data:`COLUMN_GROUPS` group
+    together and in the group's order, at the place of the group's first."""
+    ordered: list[str] = []
+    for component in components:
+        if component in ordered:
+            continue
+        group = next((g for g in COLUMN_GROUPS if component in g), (component,))
+        ordered += [c for c in group if c in components and c not in ordered]
+    return ordered
+
+
 def metric_table(metrics: list[Metric]) -> tuple[list[str], list[list[str]]]:
-    """Metrics as one row per quantity and one column per component ("value unit" cells)."""
+    """Metrics as one row per quantity and one column per component ("value unit" cells),
+    the components of a group (fx, fy, fz …) side by side (:func:`column_order`)."""
     components: list[str] = []
     cells: dict[str, dict[str, str]] = {}
     for m in metrics:
@@ -287,6 +305,7 @@ def metric_table(metrics: list[Metric]) -> tuple[list[str], list[list[str]]]:
             components.append(m.component)
         text = f"{m.formatted()} {m.unit}".strip()
         cells.setdefault(m.quantity, {})[m.component] = text
+    components = column_order(components)
     headers = ["measured", *[c or "value" for c in components]]
     rows = [[quantity, *[row.get(c, "") for c in components]] for quantity, row in cells.items()]
     return headers, rows
@@ -303,7 +322,7 @@ def _experiment_html(exp: Experiment) -> str:
                                  caption="set-up"))
     if exp.metrics:
         headers, rows = metric_table(exp.metrics)
-        tables.append(html.table(headers, rows, numeric=set(range(1, len(headers))),
+        tables.append(html.table(headers, rows, numeric=set(range(1, len(headers))), kind="metrics",
                                  caption=f"measured on the run (simulated in {exp.seconds:.1f} s wall time, "
                                          "compilation included; definitions at the end of the report)"))
     parts.append('<div class="tables">' + "".join(tables) + "</div>")
@@ -340,10 +359,8 @@ def _experiment_html(exp: Experiment) -> str:
 
 
 def _tags_html(exp: Experiment, text: str) -> str:
-    """The legend of the equation tags the article's text names (:mod:`armlab.viz.tags`); its
-    theory rows' tags are the theory's."""
-    theory = {tag for p in exp.predicted for tag in used_tags(getattr(p, "quantity", ""))}
-    return legend_html(re.sub(r"<[^>]+>|data:[^\"]+", " ", text), theory)
+    """The legend of the equation tags the article's text names (:mod:`armlab.viz.tags`)."""
+    return legend_html(re.sub(r"<[^>]+>|data:[^\"]+", " ", text))
 
 
 def _comparisons_html(planned: list[Experiment]) -> dict[int, list[str]]:

@@ -42,21 +42,19 @@ def scope_figures(exp: Experiment) -> list[tuple[str, str, bytes]]:
 
 def loop_figure(scenario: str) -> tuple[bytes, tuple[str, ...]]:
     """The PNG of the block diagram of the scenario named (or filed) ``scenario`` and the
-    equation tags its blocks name; empty when the scenario no longer loads (its run's error
-    says why)."""
+    equation tags its drawing names (blocks and arrows); empty when the scenario no longer
+    loads (its run's error says why)."""
     from armlab.scenarios import load_scenario
     from armlab.viz.diagram_drawing import draw_loop_diagram
     from armlab.viz.html import figure_png
-    from armlab.viz.loop_diagram import loop_diagram
+    from armlab.viz.loop_diagram import diagram_text, loop_diagram
     from armlab.viz.tags import used_tags
 
     try:
         diagram = loop_diagram(load_scenario(scenario))
     except ArmlabError:
         return b"", ()
-    text = " ".join(" ".join([block.title, *block.lines, block.above.title if block.above else ""])
-                    for block in diagram.blocks)
-    return figure_png(draw_loop_diagram(diagram)), tuple(used_tags(text))
+    return figure_png(draw_loop_diagram(diagram)), tuple(used_tags(diagram_text(diagram)))
 
 
 def _theory_scopes(exp: Experiment) -> list:
