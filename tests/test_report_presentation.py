@@ -4,6 +4,8 @@ drawn up to the divergence, no numbers on rounding residue, no steady state of a
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 
 from armlab.simulation.results import SimulationResult
@@ -265,3 +267,28 @@ def test_a_wide_metrics_table_scrolls_in_its_article_and_keeps_a_wrench_s_column
     assert len(tables) == 2 and len(boxed) == 2
     rule = re.search(r"\.table-scroll\s*\{([^}]*)\}", html.STYLE).group(1)
     assert "overflow-x: auto" in rule and "max-width: 100%" in rule
+
+
+def test_the_seeds_sweeps_are_run_into_the_report_and_paged(tmp_path):
+    """A11 "softer gets closer" and A8 "no visible change unless F₂ is increased a lot" are
+    sweeps: a full report of the PRP runs them (resuming a folder it wrote before) and shows
+    their pages."""
+    from armlab.sweep import read_results
+    from armlab.viz.report import SEED_SWEEPS, _run_seed_sweeps
+
+    pages = _run_seed_sweeps(SEED_SWEEPS, tmp_path, 2)
+    assert [Path(folder).name for folder, _ in pages] == ["a11_stiffness", "a8_quadratic_friction"]
+    for k, (folder, page) in enumerate(pages):
+        assert f'id="sweep{2 + k}"' in page and "<img" in page
+    a11 = read_results(tmp_path / "sweeps" / "a11_stiffness").to_pandas()
+    a11 = a11.sort_values("environment.stiffness[2]")
+    ok = a11[a11["status"] == "ok"]
+    assert len(ok) >= 20
+    assert np.all(np.diff(ok["position_error"].to_numpy()) > 0)       # softer: closer to x_d
+    a8 = read_results(tmp_path / "sweeps" / "a8_quadratic_friction").to_pandas()
+    a8 = a8.sort_values("disturbance[0].coefficient")
+    small = a8[a8["disturbance[0].coefficient"] <= 0.3]["rms_error"].to_numpy()
+    large = a8[(a8["disturbance[0].coefficient"] >= 10) & (a8["status"] == "ok")]["rms_error"].to_numpy()
+    assert small.max() < 1.05 * small.min() and large.size and large.min() > 3 * small.max()
+    again = _run_seed_sweeps(SEED_SWEEPS, tmp_path, 2)          # resumed: the same pages
+    assert [page for _, page in again] == [page for _, page in pages]
