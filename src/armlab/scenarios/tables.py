@@ -192,8 +192,11 @@ def robot(name, overrides, file, where, tip=None, allow_outside: bool = False) -
 
 
 @functools.cache
+@functools.lru_cache(maxsize=256)
 def _fields(cls: type) -> dict[str, tuple[object, bool]]:
-    """{field name: (annotation, required)} of the fields a constructor of ``cls`` takes."""
+    """{field name: (annotation, required)} of the fields a constructor of ``cls`` takes
+    (remembered per class: ``typing.get_type_hints`` costs more than the rest of a build;
+    callers only read it)."""
     hints = typing.get_type_hints(cls, include_extras=True)  # keeps Annotated conditions
     return {f.name: (_without_none(hints[f.name]), f.default is dataclasses.MISSING
                      and f.default_factory is dataclasses.MISSING)

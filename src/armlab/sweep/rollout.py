@@ -29,6 +29,7 @@ the GIL, then measures them together.
 from __future__ import annotations
 
 import inspect
+import itertools
 import math
 import os
 import warnings
@@ -254,18 +255,19 @@ class _Plan:
             self.invalid[i] = problem
         return None
 
-    def check_all(self):
-        """Mark every run with a value that fails its field's checks (once per distinct value)."""
-        for j in range(len(self.fields)):
-            column = self.columns[:, j]
-            for value in np.unique(column[np.isfinite(column)]):
-                problem = self._check(j, float(value))
-                if problem:
-                    for i in np.flatnonzero(column == value).tolist():
-                        self.invalid.setdefault(i, problem)
-            for i in np.flatnonzero(~np.isfinite(column)).tolist():
-                self.invalid.setdefault(i, f"{self.source}: {self.fields[j]}: {float(column[i])!r} is not "
-                                           "a finite number")
+    def problem(self, i: int) -> str:
+        """'' if run ``i``'s values pass their checks, else the first field's message (in field
+        order, as the scenario loader meets them)."""
+        known = self.invalid.get(i)
+        if known is not None:
+            return known
+        for j, value in enumerate(self.columns[i].tolist()):
+            if not math.isfinite(value):
+                return f"{self.source}: {self.fields[j]}: {value!r} is not a finite number"
+            problem = self._check(j, value)
+            if problem:
+                return problem
+        return ""
 
     # ------------------------------------------------------------------ probing
     def _flat_inputs(self, inputs) -> dict:
@@ -277,7 +279,8 @@ class _Plan:
         field = self.fields[j]
         column = self.columns[:, j]
         others = [float(v) for v in np.unique(column[np.isfinite(column)]) if v != self.base_values[j]]
-        others = [v for v in others if not self._check(j, v)][:2]
+        valid = (v for v in others if not self._check(j, v))      # checked lazily: two are enough
+        others = list(itertools.islice(valid, 2))
         if not others:
             return []                                   # one value in every valid run
         base = self._flat_inputs(self.inputs)
@@ -378,26 +381,26 @@ def rollout(scenario, batch: dict, *, threads: int | None = None, allow_outside:
             raise SweepFileError(source, field, str(error)) from None
     plan = _Plan(source, table, fields, columns, allow_outside)
     n_runs = columns.shape[0]
-    rows: list = [None] * n_runs
-    if plan.base_values is not None:
-        plan.check_all()
-        valid = [i for i in range(n_runs) if i not in plan.invalid]
-        threads = max(1, min(threads or os.cpu_count() or 1, len(valid) or 1))
-        parts = [valid[t::threads] for t in range(threads)]
-        with ThreadPoolExecutor(max_workers=threads) as pool:
-            outcomes = pool.map(lambda part: _run_part(plan, part, keep_results), parts)
-            for part, measured in zip(parts, outcomes, strict=True):
-                for i, row in zip(part, measured, strict=True):
-                    rows[i] = row
     out = {"run": np.arange(n_runs)}
     for j, field in enumerate(fields):
         out[field] = columns[:, j].copy()
-    out["status"] = ["invalid" if rows[i] is None else rows[i][0] for i in range(n_runs)]
-    out["diagnosis"] = [plan.invalid.get(i, "") if rows[i] is None else rows[i][1] for i in range(n_runs)]
-    for name in METRIC_NAMES:
-        out[name] = np.array([math.nan if rows[i] is None else rows[i][2][name] for i in range(n_runs)])
+    status, diagnosis = ["invalid"] * n_runs, [plan.invalid.get(i, "") for i in range(n_runs)]
+    metrics = {name: np.full(n_runs, math.nan) for name in METRIC_NAMES}
+    results = [None] * n_runs
+    if plan.base_values is not None:
+        threads = max(1, min(threads or os.cpu_count() or 1, n_runs))
+        parts = [list(range(t, n_runs, threads)) for t in range(threads)]
+        with ThreadPoolExecutor(max_workers=threads) as pool:
+            outcomes = pool.map(lambda part: _run_part(plan, part, keep_results), parts)
+            for part, (statuses, diagnoses, values, kept) in zip(parts, outcomes, strict=True):
+                for i, state, why, result in zip(part, statuses, diagnoses, kept, strict=True):
+                    status[i], diagnosis[i], results[i] = state, why, result
+                for name in METRIC_NAMES:
+                    metrics[name][part] = values[name]
+    out["status"], out["diagnosis"] = status, diagnosis
+    out.update(metrics)
     if keep_results:
-        out["results"] = [None if rows[i] is None else rows[i][3] for i in range(n_runs)]
+        out["results"] = results
     return out
 
 
@@ -418,7 +421,6 @@ def _run_part(plan: _Plan, runs: list[int], keep_results: bool) -> list:
     core = loop.core_address("rk4")
     fset, iset = setup.settings()
     size = setup.outputs().size
-    done: list = []
     names = ("controller", "environment", "plant", "x0", "lim", "dist")     # loop.rk4_batch's order
     targets, base = tuple(buffers[name] for name in names), tuple(bases[name] for name in names)
     patch = [(names.index(name), offset, j) for j, field in enumerate(plan.patches)
@@ -430,37 +432,58 @@ def _run_part(plan: _Plan, runs: list[int], keep_results: bool) -> list:
     # 50 µs by 3000), and a batch holds CHUNK logs per thread whatever its length.
     logs, ends = np.empty((CHUNK, size)), np.empty((CHUNK, 4), dtype=np.int64)
     lim_column = [(offset, j) for target, offset, j in patch if target == names.index("lim")]
+    statuses, diagnoses, kept = [], [], []
+    values_of = {name: [] for name in METRIC_NAMES}
     for first in range(0, len(runs), CHUNK):
-        chunk = np.asarray(runs[first:first + CHUNK], dtype=np.int64)
+        # Checked here, on the worker threads: this Python overlaps the other threads' loops.
+        problems = [plan.problem(i) for i in runs[first:first + CHUNK]]
+        chunk = np.asarray([i for i, why in zip(runs[first:first + CHUNK], problems, strict=True) if not why],
+                           dtype=np.int64)
         values = np.ascontiguousarray(plan.columns[chunk])
         loop.rk4_batch(core, fn, cparams, eparams, targets, base, work, fset, iset, setup.q_lo, setup.q_hi,
                        x, patch_target, patch_offset, patch_column, values, logs, ends)
         limits = np.repeat(bases["lim"][None, :], len(chunk), axis=0)
         for offset, j in lim_column:
             limits[:, offset] = values[:, j]
-        done += _measured(plan, logs[:len(chunk)], limits, [tuple(row) for row in ends[:len(chunk)].tolist()],
-                          keep_results)
-    return done
+        ran = _measured(plan, logs[:len(chunk)], limits, [tuple(row) for row in ends[:len(chunk)].tolist()],
+                        keep_results)
+        valid = np.array([not why for why in problems], dtype=bool)
+        place = iter(range(len(chunk)))
+        for why in problems:
+            r = None if why else next(place)
+            statuses.append("invalid" if why else ran[0][r])
+            diagnoses.append(why or ran[1][r])
+            kept.append(None if why else ran[3][r])
+        for name in METRIC_NAMES:
+            column = np.full(len(problems), math.nan)
+            column[valid] = ran[2][name]
+            values_of[name].append(column)
+    metrics = {name: np.concatenate(parts) if parts else np.zeros(0) for name, parts in values_of.items()}
+    return statuses, diagnoses, metrics, kept
 
 
-def _measured(plan, logs, limits, ends, keep_results: bool) -> list:
-    """(status, diagnosis, metrics, result or None) of the runs whose logs and ends
+def _measured(plan, logs, limits, ends, keep_results: bool):
+    """(statuses, diagnoses, {metric: (N,)}, results or Nones) of the runs whose logs and ends
     (status, rows, step, joint) are given; the whole, finite ones measured together."""
     setup = plan.setup
+    n = len(ends)
     whole = np.array([status == 0 and rows == setup.rows for status, rows, _, _ in ends], dtype=bool)
     whole &= np.isfinite(logs).all(axis=1)
-    done: list = [None] * len(ends)
+    statuses, diagnoses, kept = ["ok"] * n, [""] * n, [None] * n
+    metrics = {name: np.full(n, math.nan) for name in METRIC_NAMES}
     if whole.any() and not keep_results:
         chosen = np.flatnonzero(whole)
-        measured = _measure_logs(plan, logs[chosen], limits[chosen])
-        for r, metrics in zip(chosen.tolist(), measured, strict=True):
-            done[r] = ("ok", "", metrics, None)
+        for name, column in _measure_logs(plan, logs[chosen], limits[chosen]).items():
+            metrics[name][chosen] = column
     for r, (status, rows, step, joint) in enumerate(ends):
-        if done[r] is None:
-            result = _result(plan, logs[r].copy(), limits[r], status, rows, step, joint)
-            done[r] = (result.status, result.diagnosis, measure_runs([result])[0],
-                       result if keep_results else None)
-    return done
+        if whole[r] and not keep_results:
+            continue
+        result = _result(plan, logs[r].copy(), limits[r], status, rows, step, joint)
+        statuses[r], diagnoses[r] = result.status, result.diagnosis
+        kept[r] = result if keep_results else None
+        for name, value in measure_runs([result])[0].items():
+            metrics[name][r] = value
+    return statuses, diagnoses, metrics, kept
 
 
 def _result(plan, out, limit, status, rows, step, joint):
@@ -479,9 +502,10 @@ def _result(plan, out, limit, status, rows, step, joint):
     return result
 
 
-def _measure_logs(plan, logs, limits) -> list[dict]:
-    """The metrics of whole, finite runs from their flat logs (N, size), as ``measure`` of
-    each run's result would give them (``armlab.sweep.metrics.measure_alike``)."""
+def _measure_logs(plan, logs, limits) -> dict:
+    """{metric: (N,)} of whole, finite runs from their flat logs (N, size), as ``measure`` of
+    each run's result would give them (``armlab.sweep.metrics.measure_alike``; a metric the
+    runs have no signal for is left out: NaN)."""
     from armlab.simulation import loop
     from armlab.sweep.metrics import measure_alike
 
@@ -505,9 +529,7 @@ def _measure_logs(plan, logs, limits) -> list[dict]:
     z = block(columns["z"].start, setup.k)
     t = logs[0, :R].copy()
     truth = plan.truth
-    values = measure_alike(t, tau, limits, signals, z, True, truth)
-    return [{name: float(values[name][r]) if name in values else math.nan for name in METRIC_NAMES}
-            for r in range(logs.shape[0])]
+    return measure_alike(t, tau, limits, signals, z, True, truth)
 
 
 # ------------------------------------------------------------------------------ sweeps
@@ -598,16 +620,12 @@ def sweep_rows(spec, runs) -> list[dict] | None:
         for k, r in enumerate(keep):
             rows[r]["diagnosis"] = plan.invalid[k]
         return rows
-    plan.check_all()
-    valid = [k for k in range(len(keep)) if k not in plan.invalid]
     keep_results = bool(spec.signals)
-    for k, (status, diagnosis, metrics, result) in zip(valid, _run_part(plan, valid, keep_results),
-                                                        strict=True):
-        row = rows[keep[k]]
-        row.update(metrics)
-        row["status"], row["diagnosis"] = status, diagnosis
-        if keep_results:
-            row[SIGNALS] = decimated(result, spec.signals, spec.signals_every, row["run"])
-    for k, problem in plan.invalid.items():
-        rows[keep[k]]["diagnosis"] = problem
+    statuses, diagnoses, metrics, kept = _run_part(plan, list(range(len(keep))), keep_results)
+    for k, r in enumerate(keep):
+        row = rows[r]
+        row.update({name: float(metrics[name][k]) for name in METRIC_NAMES})
+        row["status"], row["diagnosis"] = statuses[k], diagnoses[k]
+        if keep_results and kept[k] is not None:
+            row[SIGNALS] = decimated(kept[k], spec.signals, spec.signals_every, row["run"])
     return rows
