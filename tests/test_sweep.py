@@ -251,7 +251,8 @@ def test_table_is_identical_whatever_the_threads_processes_and_chunks(tmp_path):
     assert list(reference["run"]) == list(range(6))
 
 
-def test_unchosen_executor_large_sweeps_on_processes_short_runs_on_one_thread(monkeypatch, tmp_path):
+def test_unchosen_executor_batches_on_threads_large_sweeps_on_processes_short_runs_on_one_thread(
+        monkeypatch, tmp_path):
     from armlab.sweep import runner
 
     spec = small(tmp_path, "chunk_size = 3")
@@ -261,6 +262,11 @@ def test_unchosen_executor_large_sweeps_on_processes_short_runs_on_one_thread(mo
     assert steps == 3 * round(0.05 / load_scenario("a7_id_high_gain").simulation["dt"])   # PRP, [set]
     monkeypatch.setattr(runner.os, "cpu_count", lambda: 2)
     monkeypatch.setattr(runner, "PROCESS_RUNS", spec.n_runs)
+    # Runs that run as batches: a thread per core, however many and however short.
+    assert runner.batch_problem(spec, range(spec.n_runs)) == ""
+    assert runner.default_executor(spec) == (2, None)
+    # Runs set up one by one (as a link-mass sweep's are):
+    monkeypatch.setattr(runner, "batch_problem", lambda spec, runs: "a field reaches the inputs computed")
     assert runner.default_executor(spec) == (2, 2)                       # processes
     monkeypatch.setattr(runner, "PROCESS_RUNS", spec.n_runs + 1)
     monkeypatch.setattr(runner, "THREAD_JOINT_STEPS", steps + 1)

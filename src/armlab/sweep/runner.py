@@ -288,11 +288,16 @@ def _say_how_runs_run(spec: SweepSpec, log) -> None:
 
 
 def default_executor(spec: SweepSpec) -> tuple[int, int | None]:
-    """(threads, processes) of a sweep with no executor chosen: one local process per core
-    from :data:`PROCESS_RUNS` runs on (on a machine with several cores), else local threads —
-    one per core for runs of :data:`THREAD_JOINT_STEPS` joint-steps or more (those of the
-    first run), one for shorter runs."""
+    """(threads, processes) of a sweep with no executor chosen: a thread per core when its
+    runs run as batches (``armlab.sweep.rollout``: the compiled loop of a whole chunk releases
+    the GIL; 10⁵ 100-step A6 runs, 2 cores: 14176 runs/s on two threads, 11836 on two
+    processes); else one local process per core from :data:`PROCESS_RUNS` runs on (on a
+    machine with several cores), else local threads — one per core for runs of
+    :data:`THREAD_JOINT_STEPS` joint-steps or more (those of the first run), one for shorter
+    runs."""
     cores = os.cpu_count() or 1
+    if cores > 1 and spec.n_runs > 1 and not batch_problem(spec, range(min(spec.n_runs, 64))):
+        return cores, None
     if cores > 1 and spec.n_runs >= PROCESS_RUNS:
         return cores, cores
     return (cores if joint_steps(spec) >= THREAD_JOINT_STEPS else 1), None
