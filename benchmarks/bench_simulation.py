@@ -347,6 +347,29 @@ def sweep_case(scenario, runs=1000, t_final=1.0):
     print(f"  simulate_batch, {os.cpu_count()} threads:              {parallel:7.2f} s wall "
           f"(speed-up {single / parallel:.2f}×; process CPU time / wall time = {cores:.2f} cores busy; "
           f"results identical to one thread)")
+    rollout_case(runs, t_final)
+
+
+def rollout_case(runs=1000, t_final=1.0):
+    """The same gain sweep as one ``armlab.rollout`` batch (K_P = ω_n², K_D = 2ω_n per joint,
+    the scenario's ζ = 1), with its metrics, on one thread and on all: per core against one
+    thread (issue 27's target ≥ 0.9)."""
+    omega = np.linspace(4.0, 12.0, runs)
+    batch = {"controller.kp": omega**2, "controller.kd": 2 * omega, "simulation.t_final": t_final}
+    armlab.rollout("a7_id_via_points", {key: value if np.ndim(value) == 0 else value[:4]
+                                        for key, value in batch.items()})          # compiled once
+    cores = os.cpu_count() or 1
+    best = {}
+    for _ in range(2):
+        for threads in sorted({1, cores}):
+            start = time.perf_counter()
+            table = armlab.rollout("a7_id_via_points", batch, threads=threads)
+            best[threads] = min(best.get(threads, np.inf), time.perf_counter() - start)
+            assert table["status"].count("ok") == runs
+    per_core = best[1] / best[cores] / cores
+    print(f"  armlab.rollout, 1 thread:               {best[1]:7.2f} s wall (best of 2, with metrics)")
+    print(f"  armlab.rollout, {cores} threads:              {best[cores]:7.2f} s wall "
+          f"({per_core:.2f} per core; target ≥ 0.9: {verdict(per_core >= 0.9)})")
 
 
 def main():

@@ -21,7 +21,7 @@ value of each field (the scenario built with that value); a value that fails mak
 inputs and its scratch (one ``work`` array, the loop's data), restored before each run, so every
 run computes exactly what its own scenario would: its row of metrics is the single-run path's
 to the last bit (``tests/test_rollout.py``), measured by the same ``armlab.sweep.metrics``.
-A thread runs its runs :data:`CHUNK` at a time in one compiled call
+A thread runs its runs :data:`CHUNK` at a time (fewer for long logs) in one compiled call
 (``armlab.simulation.loop.rk4_batch``: restore, write the run's numbers, run), which releases
 the GIL, then measures them together.
 """
@@ -45,7 +45,9 @@ from armlab.sweep.spec import assign
 __all__ = ["RolloutUnsupported", "rollout"]
 
 CHUNK = 256
-"""Runs a thread computes before measuring them together (see ``_run_part``)."""
+"""Most runs a thread computes before measuring them together (see ``_run_part``)."""
+CHUNK_BYTES = 4 * 2**20
+"""And at most this much log: a chunk's logs stay in the cache while they are measured."""
 
 
 def _leaves(value, floats: list, others: list):
@@ -428,16 +430,19 @@ def _run_part(plan: _Plan, runs: list[int], keep_results: bool) -> list:
     patch_target, patch_offset, patch_column = (np.array([p[k] for p in patch], dtype=np.int64)
                                                 for k in range(3))
     x = np.empty_like(buffers["x0"])
-    # Measured CHUNK runs at a time: their logs stay in the cache (10 µs a run measured by 256,
-    # 50 µs by 3000), and a batch holds CHUNK logs per thread whatever its length.
-    logs, ends = np.empty((CHUNK, size)), np.empty((CHUNK, 4), dtype=np.int64)
+    # Measured CHUNK runs (at most CHUNK_BYTES of logs) at a time: their logs stay in the cache
+    # (10 µs a 100-step run measured by 256, 50 µs by 3000), and a batch holds that much per
+    # thread whatever its length (a 1 s A7 sweep: 0.75 s by 256 runs, 0.66 s by 13).
+    chunk_runs = max(1, min(CHUNK, CHUNK_BYTES // (8 * size)))
+    logs, ends = np.empty((chunk_runs, size)), np.empty((chunk_runs, 4), dtype=np.int64)
     lim_column = [(offset, j) for target, offset, j in patch if target == names.index("lim")]
     statuses, diagnoses, kept = [], [], []
     values_of = {name: [] for name in METRIC_NAMES}
-    for first in range(0, len(runs), CHUNK):
+    for first in range(0, len(runs), chunk_runs):
         # Checked here, on the worker threads: this Python overlaps the other threads' loops.
-        problems = [plan.problem(i) for i in runs[first:first + CHUNK]]
-        chunk = np.asarray([i for i, why in zip(runs[first:first + CHUNK], problems, strict=True) if not why],
+        problems = [plan.problem(i) for i in runs[first:first + chunk_runs]]
+        chunk = np.asarray([i for i, why in zip(runs[first:first + chunk_runs], problems, strict=True)
+                            if not why],
                            dtype=np.int64)
         values = np.ascontiguousarray(plan.columns[chunk])
         loop.rk4_batch(core, fn, cparams, eparams, targets, base, work, fset, iset, setup.q_lo, setup.q_hi,
