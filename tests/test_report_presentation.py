@@ -292,3 +292,13 @@ def test_the_seeds_sweeps_are_run_into_the_report_and_paged(tmp_path):
     assert small.max() < 1.05 * small.min() and large.size and large.min() > 3 * small.max()
     again = _run_seed_sweeps(SEED_SWEEPS, tmp_path, 2)          # resumed: the same pages
     assert [page for _, page in again] == [page for _, page in pages]
+
+
+def test_a_bundled_sweeps_page_names_it_and_says_what_it_shows(tmp_path):
+    from armlab.sweep import load_sweep
+    from armlab.viz.report import _run_seed_sweeps
+
+    (folder, page), = _run_seed_sweeps(("a11_stiffness",), tmp_path, 0)
+    assert "bundled sweep a11_stiffness; bundled scenario a11_compliance" in page
+    assert str(Path(load_sweep("a11_stiffness").source).parent) not in page     # no installation path
+    assert "act in series between x_d" in page                                   # its description

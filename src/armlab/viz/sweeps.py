@@ -357,7 +357,22 @@ def sweep_section(folder, index: int = 0) -> str:
     figures = "".join(html.figure(html.png_data_uri(p.read_bytes()), p.stem, kind="scope",
                                   ident=f"sweep{index}-{k}") for k, p in enumerate(pngs))
     title = html.escape(manifest.get("title", folder.name))
+    described = f"<p>{html.escape(spec.description)}</p>" if spec is not None and spec.description else ""
+    files = (f"{_shown(manifest.get('source', ''), 'sweep')}; "
+             f"{_shown(manifest.get('scenario', ''), 'scenario')}")
     return (f'<section class="assignment" id="sweep{index}" data-sweep="{html.escape(folder.name)}">'
-            f"<h2>Sweep — {title}</h2><p class=\"note\">{html.escape(manifest.get('source', ''))}; "
-            f"scenario {html.escape(manifest.get('scenario', ''))}</p>"
+            f'<h2>Sweep — {title}</h2>{described}<p class="note">{files}</p>'
             f"{summary}{worst}{note}{figures}</section>")
+
+
+def _shown(path: str, kind: str) -> str:
+    """A sweep's or scenario's file as the report names it: a bundled one by its name (not the
+    path of this installation), any other by its path."""
+    from armlab.viz import html
+
+    package = Path(__file__).resolve().parents[1]
+    try:
+        Path(path).resolve().relative_to(package)
+    except (ValueError, OSError):
+        return f"{kind} {html.escape(path)}"
+    return f"bundled {kind} {html.escape(Path(path).stem)}"
