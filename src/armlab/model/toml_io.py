@@ -10,6 +10,7 @@ symbols.  Every problem raises :class:`RobotFileError` whose message is one line
 from __future__ import annotations
 
 import ast
+import functools
 import keyword
 import math
 import operator
@@ -84,6 +85,15 @@ def expression_tree(text) -> ast.Expression:
     if len(text) > MAX_EXPRESSION_LENGTH:
         raise ValueError(f"expression of {len(text)} characters is longer than the "
                          f"{MAX_EXPRESSION_LENGTH} allowed")
+    return _checked_tree(text)
+
+
+@functools.lru_cache(maxsize=4096)
+def _checked_tree(text: str) -> ast.Expression:
+    """:func:`expression_tree` of a string of allowed length, remembered: a sweep or a batch
+    reads the same few expressions ("pi/3") of its scenario for every run, and parsing them
+    cost more than the rest of building a reference (a failure is not remembered; callers only
+    read the tree)."""
     try:
         tree = ast.parse(text.strip(), mode="eval")
     except (SyntaxError, ValueError, RecursionError, MemoryError):
