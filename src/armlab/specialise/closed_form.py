@@ -197,9 +197,12 @@ def _writable_folder(kind: str = "closed_form") -> Path:
 def _generate(robot: Robot, key: str, path: Path) -> None:
     from armlab.specialise.traced import traced_source
 
-    source = traced_source(robot, key=key)
-    # Written atomically: parallel processes may generate the same module.  The last line holds
-    # the digest of the rest, checked before every import (_intact).
+    _write_source(path, traced_source(robot, key=key))
+
+
+def _write_source(path: Path, source: str) -> None:
+    """Write a generated module: atomically (parallel processes may generate the same one),
+    its last line the digest of the rest, checked before every import (:func:`_intact`)."""
     body = source if source.endswith("\n") else source + "\n"
     write_text(path, body + _digest_line(body))
 
@@ -239,14 +242,13 @@ def generated_module(name: str, source: str, kind: str):
     generated code than a robot's (the law entries of ``armlab.control.entry``)."""
     if name in sys.modules:
         return sys.modules[name]
-    body = source if source.endswith("\n") else source + "\n"
     with _GENERATED_LOCK:
         if name in sys.modules:
             return sys.modules[name]
         path = _on_disk_named(f"{name}.py", kind)
         if path is None or not _intact(path):
             path = _writable_folder(kind) / f"{name}.py"
-            write_text(path, body + _digest_line(body))
+            _write_source(path, source)
         return _import(path, name)
 
 

@@ -117,9 +117,10 @@ def rollout(scenario, batch: dict, *, threads: int | None = None, allow_outside:
     return out
 
 
-def _run_part(plan: BatchPlan, runs: list[int], keep_results: bool) -> list:
-    """(status, diagnosis, metrics, result or None) of each run of ``runs``, on this thread's
-    own copies of the inputs; the runs that end ok are measured together from their logs."""
+def _run_part(plan: BatchPlan, runs: list[int], keep_results: bool) -> tuple:
+    """(statuses, diagnoses, {metric: (len(runs),)}, results or Nones) of ``runs``, checked and
+    run on this thread's own copies of the inputs; the runs that end ok are measured together
+    from their logs."""
     from armlab.simulation import loop
 
     setup, inputs = plan.setup, plan.inputs
@@ -244,8 +245,7 @@ def _measure_logs(plan, logs, limits) -> dict:
     tau = block(columns["tau"].start, setup.n)
     z = block(columns["z"].start, setup.k)
     t = logs[0, :R].copy()
-    truth = plan.truth
-    return measure_alike(t, tau, limits, signals, z, True, truth)
+    return measure_alike(t, tau, limits, signals, z, True, plan.truth)
 
 
 # ------------------------------------------------------------------------------ sweeps
@@ -257,8 +257,6 @@ def decimated(result, names, every: int, index: int) -> dict:
     """{column: samples} of every ``every``-th sample of the signals ``names`` of a run:
     ``run``, ``t`` and one column ``<signal>.<label>`` per component (a signal the run did not
     log, such as ``tau_cmd`` without a torque limit, has no columns)."""
-    import numpy as np
-
     keep = slice(0, None, every)
     t = np.asarray(result.t)[keep]
     columns = {"run": np.full(t.size, index, dtype=np.int64), "t": t}
@@ -286,7 +284,8 @@ def batch_problem(spec, runs) -> str:
 
 
 def _sweep_plan(spec, runs):
-    """(plan, parameters of each run, derived problems) of a sweep's runs."""
+    """(plan, parameters of each run, {run position: derived-field problem}, positions of the
+    runs the plan holds) of a sweep's ``runs``."""
     from armlab.sweep.spec import _is_field
 
     known = _UNBATCHED.get(spec.fingerprint())
