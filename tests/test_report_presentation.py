@@ -274,9 +274,9 @@ def test_the_seeds_sweeps_are_run_into_the_report_and_paged(tmp_path):
     sweeps: a full report of the PRP runs them (resuming a folder it wrote before) and shows
     their pages."""
     from armlab.sweep import read_results
-    from armlab.viz.report import SEED_SWEEPS, _run_seed_sweeps
+    from armlab.viz.sweeps import SEED_SWEEPS, seed_sweep_pages
 
-    pages = _run_seed_sweeps(SEED_SWEEPS, tmp_path, 2)
+    pages = seed_sweep_pages(SEED_SWEEPS, tmp_path, 2)
     assert [Path(folder).name for folder, _ in pages] == ["a11_stiffness", "a8_quadratic_friction"]
     for k, (folder, page) in enumerate(pages):
         assert f'id="sweep{2 + k}"' in page and "<img" in page
@@ -290,15 +290,15 @@ def test_the_seeds_sweeps_are_run_into_the_report_and_paged(tmp_path):
     small = a8[a8["disturbance[0].coefficient"] <= 0.3]["rms_error"].to_numpy()
     large = a8[(a8["disturbance[0].coefficient"] >= 10) & (a8["status"] == "ok")]["rms_error"].to_numpy()
     assert small.max() < 1.05 * small.min() and large.size and large.min() > 3 * small.max()
-    again = _run_seed_sweeps(SEED_SWEEPS, tmp_path, 2)          # resumed: the same pages
+    again = seed_sweep_pages(SEED_SWEEPS, tmp_path, 2)          # resumed: the same pages
     assert [page for _, page in again] == [page for _, page in pages]
 
 
 def test_a_bundled_sweeps_page_names_it_and_says_what_it_shows(tmp_path):
     from armlab.sweep import load_sweep
-    from armlab.viz.report import _run_seed_sweeps
+    from armlab.viz.sweeps import seed_sweep_pages
 
-    (folder, page), = _run_seed_sweeps(("a11_stiffness",), tmp_path, 0)
+    (folder, page), = seed_sweep_pages(("a11_stiffness",), tmp_path, 0)
     assert "bundled sweep a11_stiffness; bundled scenario a11_compliance" in page
     assert str(Path(load_sweep("a11_stiffness").source).parent) not in page     # no installation path
     assert "act in series between x_d" in page                                   # its description

@@ -20,12 +20,10 @@ script; without plotly it has no views and says so in one line.
 
 from __future__ import annotations
 
-import importlib.util
 import os
 import re
 import threading
 import time
-import warnings
 from dataclasses import replace
 from pathlib import Path
 from typing import NamedTuple
@@ -411,38 +409,6 @@ def _seconds(seconds: float) -> str:
                                                     else f"{1e3 * seconds:.2g} ms")
 
 
-SEED_SWEEPS = ("a11_stiffness", "a8_quadratic_friction")
-"""The bundled sweeps behind two of the seed's claims — A11 "the softer the environment, the
-closer to the desired pose", A8 "no visible change unless F₂ is increased a lot" — run into
-``<out_dir>/sweeps`` and shown by a full report of the seed's robot."""
-
-
-def _run_seed_sweeps(names, out_dir: Path, first_index: int) -> list:
-    """[(folder, page)] of the sweeps ``names``, run (or resumed) into ``out_dir/sweeps``; a
-    machine without the sweep extra (Parquet) gets a page saying how to add them."""
-    if not names:
-        return []
-    if importlib.util.find_spec("pyarrow") is None:
-        note = (f"The seed's sweeps ({', '.join(names)}) need Parquet: pip install 'armlab[sweep]'.")
-        return [("seed sweeps", f'<section id="sweep{first_index}"><h2>Sweeps</h2>'
-                                f'<p class="missing">{note}</p></section>')]
-    from armlab.errors import SweepStoreError
-    from armlab.sweep import load_sweep, sweep
-    from armlab.viz.sweeps import sweep_section
-
-    pages = []
-    for k, name in enumerate(names):
-        folder = out_dir / "sweeps" / name
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            try:
-                sweep(load_sweep(name), folder, threads=1)
-            except SweepStoreError:        # the folder of another version of the sweep
-                sweep(load_sweep(name), folder, threads=1, overwrite=True)
-        pages.append((folder, sweep_section(folder, first_index + k)))
-    return pages
-
-
 def build_report(robot: str | Robot = "prp", out_dir: str | Path = "report", *, quick: bool = False,
                  show_progress: bool = True, experiments=None, animation: bool = True,
                  jobs: int | None = None, first=None, sweeps=(), views: bool = True) -> Path:
@@ -469,12 +435,12 @@ def build_report(robot: str | Robot = "prp", out_dir: str | Path = "report", *, 
         robot = load_robot(robot)
     out_dir = Path(out_dir)
     # The sweeps' pages first: a folder that is not a sweep's stops the report before its runs.
-    from armlab.viz.sweeps import sweep_section
+    from armlab.viz.sweeps import SEED_SWEEPS, seed_sweep_pages, sweep_section
 
     sweep_pages = [(folder, sweep_section(folder, k)) for k, folder in enumerate(sweeps)]
     out_dir.mkdir(parents=True, exist_ok=True)
     seed_sweeps = [] if quick or experiments is not None or robot.name != "prp" else SEED_SWEEPS
-    sweep_pages += _run_seed_sweeps(seed_sweeps, out_dir, len(sweep_pages))
+    sweep_pages += seed_sweep_pages(seed_sweeps, out_dir, len(sweep_pages))
     planned = (list(experiments) if experiments is not None
                else discover(robot, quick=quick, course_dir=out_dir / "course"))
     if quick and experiments is None:

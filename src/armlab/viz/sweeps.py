@@ -20,7 +20,9 @@ counted in the title.
 
 from __future__ import annotations
 
+import importlib.util
 import math
+import warnings
 from pathlib import Path
 
 import numpy as np  # noqa: E402
@@ -376,3 +378,34 @@ def _shown(path: str, kind: str) -> str:
     except (ValueError, OSError):
         return f"{kind} {html.escape(path)}"
     return f"bundled {kind} {html.escape(Path(path).stem)}"
+
+
+SEED_SWEEPS = ("a11_stiffness", "a8_quadratic_friction")
+"""The bundled sweeps behind two of the seed's claims — A11 "the softer the environment, the
+closer to the desired pose", A8 "no visible change unless F₂ is increased a lot" — run into
+``<out_dir>/sweeps`` and shown by a full report of the seed's robot."""
+
+
+def seed_sweep_pages(names, out_dir: Path, first_index: int) -> list:
+    """[(folder, page)] of the sweeps ``names``, run (or resumed) into ``out_dir/sweeps``; a
+    machine without the sweep extra (Parquet) gets a page saying how to add them."""
+    if not names:
+        return []
+    if importlib.util.find_spec("pyarrow") is None:
+        note = (f"The seed's sweeps ({', '.join(names)}) need Parquet: pip install 'armlab[sweep]'.")
+        return [("seed sweeps", f'<section id="sweep{first_index}"><h2>Sweeps</h2>'
+                                f'<p class="missing">{note}</p></section>')]
+    from armlab.errors import SweepStoreError
+    from armlab.sweep import load_sweep, sweep
+
+    pages = []
+    for k, name in enumerate(names):
+        folder = out_dir / "sweeps" / name
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            try:
+                sweep(load_sweep(name), folder, threads=1)
+            except SweepStoreError:        # the folder of another version of the sweep
+                sweep(load_sweep(name), folder, threads=1, overwrite=True)
+        pages.append((folder, sweep_section(folder, first_index + k)))
+    return pages
