@@ -172,20 +172,20 @@ def _batch_pairs(pin, m, ws, h_e, model, data, Q, QD, QDD, QP, TAU, B, QDD_OUT):
 
 
 @njit(cache=True)
-def _touch(packed, q, out):
-    out[0, 0] = packed[0] + q[0]
+def _touch(model, data, q, out):
+    out[0, 0] = model[0] + data[0] + q[0]
     return 0
 
 
 def call_floor_us():
     """µs of the bare mechanics of an ``inertia_matrix`` call on the PRP: a Python function that
     allocates the (3, 3) output and calls, through numba's dispatcher, a compiled function that
-    does nothing with the wrapper's three arrays (packed robot, q, output)."""
-    packed, q = np.zeros(500), np.zeros(3)
+    does nothing with the wrapper's four arrays (the robot's model and data, q, output)."""
+    model, data, q = np.zeros(500), np.zeros(150), np.zeros(3)
 
     def wrapper(q):
         out = np.empty((3, 3))
-        _touch(packed, q, out)
+        _touch(model, data, q, out)
         return out
 
     return _best(lambda: wrapper(q), 20000) * 1e6

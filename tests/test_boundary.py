@@ -13,20 +13,20 @@ from armlab.kernels.boundary import (
     kernel_address,
     stack_address,
 )
-from armlab.kernels.plant import forward_dynamics_packed, kinetic_energy_packed, pack_plant
+from armlab.kernels.plant import forward_dynamics_packed, kinetic_energy_packed, make_data
 from armlab.simulation import loop
 
 VEC = types.float64[::1]
 
 
 @njit(cache=False)
-def _energy_through(address, packed, q, qd):
-    return call_float(address, (packed, q, qd))
+def _energy_through(address, model, data, q, qd):
+    return call_float(address, (model, data, q, qd))
 
 
 @njit(cache=False)
-def _forward_through(address, packed, q, qd, tau, h_e, out):
-    return call_int(address, (packed, q, qd, tau, h_e, out))
+def _forward_through(address, model, data, q, qd, tau, h_e, out):
+    return call_int(address, (model, data, q, qd, tau, h_e, out))
 
 
 def test_indirect_calls_return_what_direct_calls_return():
@@ -34,16 +34,17 @@ def test_indirect_calls_return_what_direct_calls_return():
     rng = np.random.default_rng(3)
     q, qd, tau = rng.normal(size=(3, robot.n))
     h_e = rng.normal(size=6)
-    packed = pack_plant(robot.arrays)
-    energy = _energy_through(kernel_address(kinetic_energy_packed, (VEC,) * 3, types.float64), packed, q, qd)
+    model, data = robot.packed, make_data(robot.n)
+    energy = _energy_through(kernel_address(kinetic_energy_packed, (VEC,) * 4, types.float64), model, data,
+                             q, qd)
     assert energy == armlab.kinetic_energy(robot, q, qd)
     out = np.zeros(robot.n)
-    forward = kernel_address(forward_dynamics_packed, (VEC,) * 6, types.int64)
-    status = _forward_through(forward, packed, q, qd, tau, h_e, out)
+    forward = kernel_address(forward_dynamics_packed, (VEC,) * 7, types.int64)
+    status = _forward_through(forward, model, data, q, qd, tau, h_e, out)
     assert status == 0
     np.testing.assert_array_equal(out, armlab.forward_dynamics(robot, q, qd, tau, h_e=h_e))
     # A wrong length comes back as the kernel's status, memory untouched.
-    assert _forward_through(forward, packed, q[:2], qd, tau, h_e, out) == 1
+    assert _forward_through(forward, model, data, q[:2], qd, tau, h_e, out) == 1
 
 
 @njit(cache=False)
@@ -86,15 +87,17 @@ def test_a_parameter_tuple_crosses_as_a_stack_address():
 @njit(cache=False)
 def _scratch_extent(work, n, k, s):
     views = loop.scratch_views(work, n, k, s)
-    last, zdot = views[-1], views[8]
-    return ((last.ctypes.data - work.ctypes.data) // 8 + last.size,
-            (zdot.ctypes.data - work.ctypes.data) // 8)
+    loops_last, plant, zdot = views[-2], views[-1], views[8]
+    start = (plant.ctypes.data - work.ctypes.data) // 8
+    return ((loops_last.ctypes.data - work.ctypes.data) // 8 + loops_last.size, start,
+            start + plant.size, (zdot.ctypes.data - work.ctypes.data) // 8)
 
 
 @pytest.mark.parametrize("n, k, s", [(1, 0, 0), (3, 12, 7), (6, 2, 30)])
 def test_the_scratch_views_fill_the_scratch_array_exactly(n, k, s):
     work = np.zeros(loop.work_size(n, k, s))
-    end, zdot_start = _scratch_extent(work, n, k, s)
+    loops_end, plant_start, end, zdot_start = _scratch_extent(work, n, k, s)
+    assert loops_end == plant_start                      # the plant's data follows, no overlap
     assert end == work.size
     assert zdot_start == loop.zdot_slice(n, k).start   # where the adaptive path reads ż
 

@@ -9,7 +9,6 @@ import pytest
 
 import armlab
 from armlab.errors import ControllerSpecError
-from armlab.kernels.plant import pack_plant
 from armlab.scenarios import load_scenario
 from armlab.simulation import SimulationError, simulate
 from armlab.specialise import ClosedFormUnavailable, closed_form_module, closed_form_status, robot_key
@@ -28,7 +27,7 @@ def robots():
 @pytest.mark.parametrize("robot", list(robots()), ids=lambda r: f"{r.name}-{r.links[-1].inertial.mass:g}")
 def test_closed_form_equals_the_numeric_kernels(robot):
     module = closed_form_module(robot)
-    packed = pack_plant(robot.arrays)
+    plant = (robot.packed, np.zeros(0))  # model, data: the generated code reads neither
     rng = np.random.default_rng(7)
     n = robot.n
     for _ in range(25):
@@ -36,10 +35,10 @@ def test_closed_form_equals_the_numeric_kernels(robot):
         qd, qdd, tau = rng.normal(scale=2.0, size=(3, n))
         h_e = rng.normal(size=6) * rng.integers(0, 2)        # half the states without a wrench
         tau_cf, qdd_cf = np.zeros(n), np.zeros(n)
-        module.inverse_dynamics(packed, q, qd, qdd, tau_cf)
+        module.inverse_dynamics(*plant, q, qd, qdd, tau_cf)
         expected = armlab.inverse_dynamics(robot, q, qd, qdd)
         np.testing.assert_allclose(tau_cf, expected, rtol=1e-10, atol=1e-10 * np.abs(expected).max())
-        assert module.forward_dynamics(packed, q, qd, tau, h_e, qdd_cf) == 0
+        assert module.forward_dynamics(*plant, q, qd, tau, h_e, qdd_cf) == 0
         expected = armlab.forward_dynamics(robot, q, qd, tau, h_e=h_e)
         np.testing.assert_allclose(qdd_cf, expected, rtol=1e-9, atol=1e-9 * np.abs(expected).max())
 
@@ -150,12 +149,12 @@ def test_a_pickled_robot_finds_its_closed_form_in_a_fresh_process(monkeypatch):
 def test_generated_kernels_refuse_wrong_lengths():
     robot = armlab.load_robot("prp")
     module = closed_form_module(robot)
-    packed = pack_plant(robot.arrays)
+    plant = (robot.packed, np.zeros(0))  # model, data: the generated code reads neither
     out = np.zeros(3)
-    assert module.forward_dynamics(packed, np.zeros(2), np.zeros(3), np.zeros(3), np.zeros(6), out) == 1
-    assert np.isnan(module.kinetic_energy(packed, np.zeros(3), np.zeros(4)))
-    assert module.mass_matrix(packed, np.zeros(3), np.zeros((3, 2))) == 1
-    assert module.checked_inverse_dynamics(packed, np.zeros(3), np.zeros(3), np.zeros(4), out) == 1
+    assert module.forward_dynamics(*plant, np.zeros(2), np.zeros(3), np.zeros(3), np.zeros(6), out) == 1
+    assert np.isnan(module.kinetic_energy(*plant, np.zeros(3), np.zeros(4)))
+    assert module.mass_matrix(*plant, np.zeros(3), np.zeros((3, 2))) == 1
+    assert module.checked_inverse_dynamics(*plant, np.zeros(3), np.zeros(3), np.zeros(4), out) == 1
 
 
 @pytest.mark.parametrize("name", SMALL + ["puma560"])

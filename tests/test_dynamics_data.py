@@ -7,13 +7,14 @@ robot's own arrays and a fresh workspace, never from the wrappers under test.
 
 from __future__ import annotations
 
+import gc
 import pickle
+import weakref
 
 import numpy as np
 import pytest
 
 import armlab
-from armlab import dynamics
 from armlab.dynamics import DynamicsData
 from armlab.kernels.dynamics import (
     coriolis_matrix_into,
@@ -96,16 +97,23 @@ def test_data_pickles_and_serves_its_robot_after():
     np.testing.assert_array_equal(armlab.inertia_matrix(copy[0], q, data=copy[1]), B)
 
 
-def test_the_default_data_is_bounded_and_results_do_not_depend_on_it():
-    base = armlab.load_robot("prp")
-    q = np.array([0.1, 0.5, 0.2])
-    expected = armlab.inertia_matrix(base, q)
-    robots = [base.replace(links=base.links) for _ in range(dynamics.DEFAULT_DATA_ROBOTS + 5)]
-    for robot in robots:
-        np.testing.assert_array_equal(armlab.inertia_matrix(robot, q), expected)
-    assert len(dynamics._DEFAULT) <= dynamics.DEFAULT_DATA_ROBOTS
-    # The first robots' data were dropped; they are made again, with the same results.
-    np.testing.assert_array_equal(armlab.inertia_matrix(robots[0], q), expected)
+def test_a_call_without_data_keeps_nothing_and_equals_a_call_with_data():
+    robot = armlab.load_robot("prp").replace(name="short-lived")
+    q, qd = np.array([0.1, 0.5, 0.2]), np.array([0.3, -0.2, 0.4])
+    data = DynamicsData(robot)
+    for dynamics_choice in ("numeric", "closed_form", "auto"):
+        np.testing.assert_array_equal(armlab.inverse_dynamics(robot, q, qd, q, dynamics=dynamics_choice),
+                                      armlab.inverse_dynamics(robot, q, qd, q, dynamics=dynamics_choice,
+                                                              data=data))
+    np.testing.assert_array_equal(armlab.inertia_matrix(robot, q), armlab.inertia_matrix(robot, q, data=data))
+    np.testing.assert_array_equal(armlab.forward_dynamics(robot, q, qd, q),
+                                  armlab.forward_dynamics(robot, q, qd, q, data=data))
+    assert armlab.kinetic_energy(robot, q, qd) == armlab.kinetic_energy(robot, q, qd, data=data)
+    # Nothing in armlab holds the robot once its caller lets it go (no map keyed by robots).
+    alive = weakref.ref(robot)
+    del robot, data
+    gc.collect()
+    assert alive() is None
 
 
 def test_nothing_is_written_into_a_robot():

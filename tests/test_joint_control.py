@@ -110,7 +110,7 @@ def test_computed_torque_with_diagonal_gains_skips_only_zero_terms():
     controller = JointInverseDynamics.from_poles(PRP, Sinusoid([0.1, 1.0, 0.05], [0.05, 0.3, 0.02],
                                                               [2.0, 1.0, 3.0]), [3.0, 5.0, 7.0])
     params = controller.params()
-    assert params[5][0] == 1                                     # from_poles: diagonal gains
+    assert params.diagonal[0] == 1                               # from_poles: diagonal gains
     general = params._replace(diagonal=np.array([0]))
     rng = np.random.default_rng(3)
     for _ in range(20):
@@ -124,7 +124,7 @@ def test_computed_torque_with_diagonal_gains_skips_only_zero_terms():
         np.testing.assert_array_equal(outs[0][0], outs[1][0])
         np.testing.assert_array_equal(outs[0][1], outs[1][1])
     full = JointInverseDynamics(PRP, controller.reference, [[25, 1, 0], [1, 25, 0], [0, 0, 25]], 10.0)
-    assert full.params()[5][0] == 0                              # coupled gains: the full sum
+    assert full.params().diagonal[0] == 0                        # coupled gains: the full sum
 
 
 NUMERIC_RUN_PROGRAM = """

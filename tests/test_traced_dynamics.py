@@ -14,7 +14,6 @@ from hypothesis import given, settings
 import armlab
 from armlab.control.joint_space import JointInverseDynamics
 from armlab.kernels import dynamics as kernels
-from armlab.kernels.plant import pack_plant
 from armlab.references.joint import ViaPoints
 from armlab.simulation import simulate
 from armlab.specialise import closed_form_module
@@ -64,33 +63,33 @@ def random_states(robot, count, seed=5):
 
 
 def compare_with_numeric(robot, module):
-    packed = pack_plant(robot.arrays)
+    plant = (robot.packed, np.zeros(0))  # model, data: the generated code reads neither
     n = robot.n
     for q, qd, qdd, tau, h_e in random_states(robot, 8):
         got = np.zeros(n)
-        module.inverse_dynamics(packed, q, qd, qdd, got)
+        module.inverse_dynamics(*plant, q, qd, qdd, got)
         assert_close(got, armlab.inverse_dynamics(robot, q, qd, qdd), "inverse dynamics")
-        assert module.forward_dynamics(packed, q, qd, tau, h_e, got) == 0
+        assert module.forward_dynamics(*plant, q, qd, tau, h_e, got) == 0
         assert_close(got, armlab.forward_dynamics(robot, q, qd, tau, h_e=h_e), "forward dynamics")
-        assert_close(module.kinetic_energy(packed, q, qd), armlab.kinetic_energy(robot, q, qd),
+        assert_close(module.kinetic_energy(*plant, q, qd), armlab.kinetic_energy(robot, q, qd),
                      "kinetic energy")
 
 
 def compare_with_pinocchio(robot, module):
     model, data = pinocchio_model(robot)
-    packed = pack_plant(robot.arrays)
+    plant = (robot.packed, np.zeros(0))  # model, data: the generated code reads neither
     for q, qd, qdd, tau, _ in random_states(robot, 5):
         qp, vp = pinocchio_q(robot, model, q), pinocchio_v(robot, model, qd)
         got = np.zeros(robot.n)
-        module.inverse_dynamics(packed, q, qd, qdd, got)
+        module.inverse_dynamics(*plant, q, qd, qdd, got)
         expected = armlab_v(robot, model, pin.rnea(model, data, qp, vp, pinocchio_v(robot, model, qdd)))
         assert_close(got, expected, "inverse dynamics")
-        assert module.forward_dynamics(packed, q, qd, tau, np.zeros(6), got) == 0
+        assert module.forward_dynamics(*plant, q, qd, tau, np.zeros(6), got) == 0
         expected = armlab_v(robot, model, pin.aba(model, data, qp, vp, pinocchio_v(robot, model, tau)))
         assert_close(got, expected, "forward dynamics")
         B = pin.crba(model, data, qp)
         B = np.triu(B) + np.triu(B, 1).T
-        assert_close(module.kinetic_energy(packed, q, qd), 0.5 * vp @ B @ vp, "kinetic energy")
+        assert_close(module.kinetic_energy(*plant, q, qd), 0.5 * vp @ B @ vp, "kinetic energy")
 
 
 PUMA = armlab.load_robot("puma560")
@@ -122,16 +121,16 @@ def test_an_interpreted_module_is_the_compiled_one():
     """What the random robots' checks rest on: the interpreted source gives the compiled
     module's numbers (the Puma560, motors and friction on)."""
     compiled, interpreted = traced_module(PUMA), interpreted_module(PUMA)
-    packed = pack_plant(PUMA.arrays)
+    plant = (PUMA.packed, np.zeros(0))  # model, data: the generated code reads neither
     for q, qd, qdd, tau, h_e in random_states(PUMA, 4):
         a, b = np.zeros(6), np.zeros(6)
-        compiled.inverse_dynamics(packed, q, qd, qdd, a)
-        interpreted.inverse_dynamics(packed, q, qd, qdd, b)
+        compiled.inverse_dynamics(*plant, q, qd, qdd, a)
+        interpreted.inverse_dynamics(*plant, q, qd, qdd, b)
         assert_close(b, a, "inverse dynamics")
-        assert compiled.forward_dynamics(packed, q, qd, tau, h_e, a) == 0
-        assert interpreted.forward_dynamics(packed, q, qd, tau, h_e, b) == 0
+        assert compiled.forward_dynamics(*plant, q, qd, tau, h_e, a) == 0
+        assert interpreted.forward_dynamics(*plant, q, qd, tau, h_e, b) == 0
         assert_close(b, a, "forward dynamics")
-        assert_close(interpreted.kinetic_energy(packed, q, qd), compiled.kinetic_energy(packed, q, qd),
+        assert_close(interpreted.kinetic_energy(*plant, q, qd), compiled.kinetic_energy(*plant, q, qd),
                      "kinetic energy")
 
 
@@ -177,9 +176,9 @@ def test_folding_rules_and_branches():
 
 def test_generated_kernels_refuse_wrong_lengths():
     module = traced_module(PUMA)
-    packed, out = pack_plant(PUMA.arrays), np.zeros(6)
-    assert module.forward_dynamics(packed, np.zeros(5), np.zeros(6), np.zeros(6), np.zeros(6), out) == 1
-    assert np.isnan(module.kinetic_energy(packed, np.zeros(6), np.zeros(7)))
+    plant, out = (PUMA.packed, np.zeros(0)), np.zeros(6)
+    assert module.forward_dynamics(*plant, np.zeros(5), np.zeros(6), np.zeros(6), np.zeros(6), out) == 1
+    assert np.isnan(module.kinetic_energy(*plant, np.zeros(6), np.zeros(7)))
 
 
 def test_puma_closed_loop_through_the_traced_module_matches_the_numeric_one():

@@ -10,22 +10,23 @@ skew-symmetric), h_e = [f_e; μ_e] is the wrench the end effector exerts on the 
 in Σ_0, with μ_e about Σ_e's origin.  Units SI; q̇ [m/s | rad/s], τ [N | N·m].
 
 Each function is a plain wrapper: it converts its inputs when it must and calls a compiled
-entry over the robot's packed model (``armlab.kernels.plant``).  Every call returns a new array.
+entry over the robot's model and a data (``armlab.kernels.plant``).  Every call returns a new
+array.
 
-The data of a robot
--------------------
-What a call needs besides the state is a :class:`DynamicsData` (the role of Pinocchio's
-``Data`` or MuJoCo's ``MjData``)::
+The model and the data of a robot
+---------------------------------
+The model is ``robot.packed``, the robot's numbers in one array, made with the robot and never
+written.  What a call needs besides the model and the state is scratch memory, a
+:class:`DynamicsData` (the role of Pinocchio's ``Data`` or MuJoCo's ``MjData``)::
 
-    data = DynamicsData(robot)          # packed model, scratch workspace, zero wrench
+    data = DynamicsData(robot)          # scratch workspace, the dynamics choices met
     for q, qd, qdd in states:           # a hot Python loop
         tau = inverse_dynamics(robot, q, qd, qdd, data=data)
 
-Without ``data=`` a call uses the robot's default data, kept in a small per-process map from
-the robot's identity to its data (the last ``DEFAULT_DATA_ROBOTS`` robots used; nothing is
-written into the robot).  The results are the same: the packed model depends only on the
-immutable robot, and every kernel writes the scratch it reads first.  A data serves one
-thread at a time (its workspace is scratch).
+A call without ``data=`` makes its own (a zeroed workspace of a few hundred numbers, ~1 µs);
+nothing is kept between calls and nothing is written into the robot.  The results are the
+same either way: every kernel writes the scratch it reads first.  A data serves one thread at
+a time.
 
 Inputs
 ------
@@ -40,7 +41,6 @@ raises a one-line ``ValueError`` naming the field.
 from __future__ import annotations
 
 import functools
-import threading
 
 import numpy as np
 from numba import njit, types
@@ -52,28 +52,24 @@ from armlab.kernels.plant import (
     forward_dynamics_packed,
     inverse_dynamics_packed,
     kinetic_energy_packed,
-    pack_plant,
+    make_data,
     unpack_plant,
-    zero_wrench,
 )
 from armlab.model.robot import Robot
 from armlab.specialise import DYNAMICS_CHOICES, chosen_module
 
 NUMERIC = "numeric"
-# How many robots keep a default DynamicsData (the oldest is dropped first).
-DEFAULT_DATA_ROBOTS = 32
 
 
 class DynamicsData:
-    """The data of ``robot``'s dynamics calls: its packed model with a scratch workspace and a
-    zero wrench inside (``packed``, layout in ``armlab.kernels.plant``), and the compiled
-    entries of each ``dynamics=`` choice met so far (``entries``; what "auto" picks is decided
-    at its first use).
+    """The scratch of ``robot``'s dynamics calls: the kernels' workspace (``workspace``, see
+    ``armlab.kernels.plant``) and the compiled entries of each ``dynamics=`` choice met so far
+    (``entries``; what "auto" picks is decided at its first use).
 
     Reusable by any sequence of calls for that robot, by one thread at a time.
     """
 
-    __slots__ = ("robot", "n", "square", "packed", "zero_wrench", "rest", "entries")
+    __slots__ = ("robot", "n", "square", "workspace", "rest", "entries")
 
     def __init__(self, robot: Robot):
         if not isinstance(robot, Robot):
@@ -81,8 +77,7 @@ class DynamicsData:
         self.robot = robot
         self.n = robot.n
         self.square = (robot.n, robot.n)
-        self.packed = pack_plant(robot.arrays)
-        self.zero_wrench = zero_wrench(self.packed)
+        self.workspace = make_data(robot.n)
         self.rest = np.zeros(robot.n)             # q̇ = q̈ = 0 (never written)
         self.entries: dict = {NUMERIC: _ENTRIES}
 
@@ -94,34 +89,14 @@ class DynamicsData:
         return f"DynamicsData({self.robot.name!r})"
 
 
-_DEFAULT: dict[int, DynamicsData] = {}
-_DEFAULT_LOCK = threading.Lock()
-
-
-def _default_data(robot: Robot) -> DynamicsData:
-    """``robot``'s default data (see the module docstring), made on its first use.  The map
-    holds the robot itself (in the data), so its identity cannot pass to another robot."""
-    data = _DEFAULT.get(id(robot))
+def _data_of(robot: Robot, data) -> DynamicsData:
+    """``data`` if it is ``robot``'s, a new one if it is None, else the one-line error."""
     if data is None:
-        data = DynamicsData(robot)
-        with _DEFAULT_LOCK:
-            while len(_DEFAULT) >= DEFAULT_DATA_ROBOTS:
-                del _DEFAULT[next(iter(_DEFAULT))]
-            _DEFAULT[id(robot)] = data
+        return DynamicsData(robot)
+    if type(data) is not DynamicsData or data.robot is not robot:
+        owner = repr(data.robot.name) if isinstance(data, DynamicsData) else f"a {type(data).__name__}"
+        raise ValueError(f"data: DynamicsData of {owner}, not of robot {getattr(robot, 'name', robot)!r}")
     return data
-
-
-def _refuse_data(robot: Robot, data) -> None:
-    """The one-line error for a ``data=`` that is not ``robot``'s."""
-    owner = repr(data.robot.name) if isinstance(data, DynamicsData) else f"a {type(data).__name__}"
-    raise ValueError(f"data: DynamicsData of {owner}, not of robot {getattr(robot, 'name', robot)!r}")
-
-
-def packed_copy(robot: Robot) -> np.ndarray:
-    """A private copy of ``robot``'s packed array (``armlab.kernels.plant``), for compiled code
-    that uses its workspace, e.g. one simulation of a parallel sweep (a copy of the default
-    data's: ~50 times cheaper than packing anew)."""
-    return (_default_get(id(robot)) or _default_data(robot)).packed.copy()
 
 
 # ---------------------------------------------------------------------------- compiled entries
@@ -129,42 +104,42 @@ def packed_copy(robot: Robot) -> np.ndarray:
 # the plant kernels the simulator compiles too (one compile serves both) and inline only the
 # CRBA, whose call the inertia matrix of a small arm would feel.
 
-def _free_motion_entry(packed, q, qd, qdd, tau_out):
+def _free_motion_entry(model, data, q, qd, qdd, tau_out):
     """The common call, with gravity and without a wrench (also g(q) = τ(q, 0, 0))."""
-    n = int(packed[0])
+    n = int(model[0])
     if q.shape[0] != n or qd.shape[0] != n or qdd.shape[0] != n:
         return 1
-    inverse_dynamics_packed(packed, q, qd, qdd, tau_out)
+    inverse_dynamics_packed(model, data, q, qd, qdd, tau_out)
     return 0
 
 
-def _inverse_dynamics_entry(packed, q, qd, qdd, gravity_scale, h_e, tau_out):
-    n, m, ws, _ = unpack_plant(packed)
+def _inverse_dynamics_entry(model, data, q, qd, qdd, gravity_scale, h_e, tau_out):
+    n, m, ws = unpack_plant(model, data)
     if q.shape[0] != n or qd.shape[0] != n or qdd.shape[0] != n or h_e.shape[0] != 6:
         return 1
     rnea_into(m, ws, q, qd, qdd, gravity_scale, h_e, tau_out)
     return 0
 
 
-def _mass_matrix_entry(packed, q, B_out):
-    n, m, ws, _ = unpack_plant(packed)
+def _mass_matrix_entry(model, data, q, B_out):
+    n, m, ws = unpack_plant(model, data)
     if q.shape[0] != n:
         return 1
     mass_matrix_inline(m, ws, q, B_out)
     return 0
 
 
-def _coriolis_entry(packed, q, qd, C_out):
-    n, m, ws, _ = unpack_plant(packed)
+def _coriolis_entry(model, data, q, qd, C_out):
+    n, m, ws = unpack_plant(model, data)
     if q.shape[0] != n or qd.shape[0] != n:
         return 1
     coriolis_matrix_into(m, ws, q, qd, C_out)
     return 0
 
 
-def _potential_energy_entry(packed, q):
+def _potential_energy_entry(model, data, q):
     """U, or NaN for a vector of the wrong length."""
-    n, m, ws, _ = unpack_plant(packed)
+    n, m, ws = unpack_plant(model, data)
     if q.shape[0] != n:
         return np.nan
     return potential_energy_kernel(m, ws, q)
@@ -190,31 +165,31 @@ class _Entries:
 
     @functools.cached_property
     def free_motion(self):
-        return _one_signature(_free_motion_entry, _V, _V, _V, _V, _V)
+        return _one_signature(_free_motion_entry, _V, _V, _V, _V, _V, _V)
 
     @functools.cached_property
     def inverse_dynamics(self):
-        return _one_signature(_inverse_dynamics_entry, _V, _V, _V, _V, types.float64, _V, _V)
+        return _one_signature(_inverse_dynamics_entry, _V, _V, _V, _V, _V, types.float64, _V, _V)
 
     @functools.cached_property
     def mass_matrix(self):
-        return _one_signature(_mass_matrix_entry, _V, _V, _M)
+        return _one_signature(_mass_matrix_entry, _V, _V, _V, _M)
 
     @functools.cached_property
     def coriolis(self):
-        return _one_signature(_coriolis_entry, _V, _V, _V, _M)
+        return _one_signature(_coriolis_entry, _V, _V, _V, _V, _M)
 
     @functools.cached_property
     def forward_dynamics(self):
-        return _one_signature(forward_dynamics_packed, _V, _V, _V, _V, _V, _V)
+        return _one_signature(forward_dynamics_packed, _V, _V, _V, _V, _V, _V, _V)
 
     @functools.cached_property
     def kinetic_energy(self):
-        return _one_signature(kinetic_energy_packed, _V, _V, _V)
+        return _one_signature(kinetic_energy_packed, _V, _V, _V, _V)
 
     @functools.cached_property
     def potential_energy(self):
-        return _one_signature(_potential_energy_entry, _V, _V)
+        return _one_signature(_potential_energy_entry, _V, _V, _V)
 
 
 _ENTRIES = _Entries()
@@ -226,9 +201,9 @@ class _GeneratedEntries:
     the module holds that compiled version already)."""
 
     def __init__(self, module):
-        self.free_motion = _one_signature(module.checked_inverse_dynamics, _V, _V, _V, _V, _V)
-        self.mass_matrix = _one_signature(module.mass_matrix, _V, _V, _M)
-        self.forward_dynamics = _one_signature(module.forward_dynamics, _V, _V, _V, _V, _V, _V)
+        self.free_motion = _one_signature(module.checked_inverse_dynamics, _V, _V, _V, _V, _V, _V)
+        self.mass_matrix = _one_signature(module.mass_matrix, _V, _V, _V, _M)
+        self.forward_dynamics = _one_signature(module.forward_dynamics, _V, _V, _V, _V, _V, _V, _V)
 
 
 @functools.cache
@@ -258,9 +233,9 @@ def _entries_for(data: DynamicsData, dynamics):
 # each function passes it exact ndarrays of native float64 only; everything else, and every
 # array it refuses, takes the function's general path (a leading underscore), which converts.
 _ND = np.ndarray
+_NO_WRENCH = np.zeros(6)          # h_e of a call without contact (the kernels only read it)
 _F64 = np.dtype(np.float64)
 _empty = np.empty
-_default_get = _DEFAULT.get
 # What the fast path may meet: a refused argument (TypeError, ValueError), a choice not yet
 # decided for the data (KeyError) or not hashable (TypeError).
 _FALLBACK = (TypeError, ValueError, KeyError)
@@ -307,15 +282,12 @@ def inverse_dynamics(robot: Robot, q, qd, qdd, h_e=None, gravity: bool = True,
         gravity; others run the kernels.
     data : the robot's :class:`DynamicsData` (see the module docstring), or None.
     """
-    if data is None:
-        data = _default_get(id(robot)) or _default_data(robot)
-    elif type(data) is not DynamicsData or data.robot is not robot:
-        _refuse_data(robot, data)
+    data = _data_of(robot, data)
     tau = _empty(data.n)
     if (h_e is None and gravity and type(q) is type(qd) is type(qdd) is _ND
             and q.dtype is qd.dtype is qdd.dtype is _F64):
         try:
-            if not data.entries[dynamics].free_motion(data.packed, q, qd, qdd, tau):
+            if not data.entries[dynamics].free_motion(robot.packed, data.workspace, q, qd, qdd, tau):
                 return tau
         except _FALLBACK:
             pass
@@ -324,11 +296,11 @@ def inverse_dynamics(robot: Robot, q, qd, qdd, h_e=None, gravity: bool = True,
 
 def _inverse_dynamics(robot, q, qd, qdd, h_e, gravity, dynamics, data, tau):
     entries = _entries_for(data, dynamics)
-    q, qd, qdd, h = _vectors(robot, q=q, qd=qd, qdd=qdd, h_e=data.zero_wrench if h_e is None else h_e)
+    q, qd, qdd, h = _vectors(robot, q=q, qd=qd, qdd=qdd, h_e=_NO_WRENCH if h_e is None else h_e)
     if h_e is None and gravity:
-        entries.free_motion(data.packed, q, qd, qdd, tau)
+        entries.free_motion(robot.packed, data.workspace, q, qd, qdd, tau)
     else:
-        _ENTRIES.inverse_dynamics(data.packed, q, qd, qdd, 1.0 if gravity else 0.0, h, tau)
+        _ENTRIES.inverse_dynamics(robot.packed, data.workspace, q, qd, qdd, 1.0 if gravity else 0.0, h, tau)
     return tau
 
 
@@ -337,18 +309,15 @@ def inertia_matrix(robot: Robot, q, dynamics: str = NUMERIC,
     """Joint-space inertia matrix B(q), (n, n), symmetric positive definite, rotors included
     (D2, D3), by the composite-rigid-body algorithm (``dynamics`` and ``data`` as in
     :func:`inverse_dynamics`).  Units kg | kg·m | kg·m²."""
-    if data is None:
-        data = _default_get(id(robot)) or _default_data(robot)
-    elif type(data) is not DynamicsData or data.robot is not robot:
-        _refuse_data(robot, data)
+    data = _data_of(robot, data)
     B = _empty(data.square)
     if type(q) is _ND and q.dtype is _F64:
         try:
-            if not data.entries[dynamics].mass_matrix(data.packed, q, B):
+            if not data.entries[dynamics].mass_matrix(robot.packed, data.workspace, q, B):
                 return B
         except _FALLBACK:
             pass
-    _entries_for(data, dynamics).mass_matrix(data.packed, _vector(robot, q, "q"), B)
+    _entries_for(data, dynamics).mass_matrix(robot.packed, data.workspace, _vector(robot, q, "q"), B)
     return B
 
 
@@ -359,36 +328,30 @@ def coriolis_matrix(robot: Robot, q, qd, data: DynamicsData | None = None) -> np
 
     so that Ḃ − 2C is skew-symmetric (Siciliano et al. (7.49)).
     """
-    if data is None:
-        data = _default_get(id(robot)) or _default_data(robot)
-    elif type(data) is not DynamicsData or data.robot is not robot:
-        _refuse_data(robot, data)
+    data = _data_of(robot, data)
     C = _empty(data.square)
     if type(q) is type(qd) is _ND and q.dtype is qd.dtype is _F64:
         try:
-            if not _ENTRIES.coriolis(data.packed, q, qd, C):
+            if not _ENTRIES.coriolis(robot.packed, data.workspace, q, qd, C):
                 return C
         except _FALLBACK:
             pass
-    _ENTRIES.coriolis(data.packed, *_vectors(robot, q=q, qd=qd), C)
+    _ENTRIES.coriolis(robot.packed, data.workspace, *_vectors(robot, q=q, qd=qd), C)
     return C
 
 
 def gravity_torque(robot: Robot, q, data: DynamicsData | None = None) -> np.ndarray:
     """Gravity torques g(q) = (∂U/∂q)ᵀ, (n,) [N | N·m], with U of (D7)."""
-    if data is None:
-        data = _default_get(id(robot)) or _default_data(robot)
-    elif type(data) is not DynamicsData or data.robot is not robot:
-        _refuse_data(robot, data)
+    data = _data_of(robot, data)
     g = _empty(data.n)
     rest = data.rest                          # g(q) = τ(q, q̇ = 0, q̈ = 0)
     if type(q) is _ND and q.dtype is _F64:
         try:
-            if not _ENTRIES.free_motion(data.packed, q, rest, rest, g):
+            if not _ENTRIES.free_motion(robot.packed, data.workspace, q, rest, rest, g):
                 return g
         except _FALLBACK:
             pass
-    _ENTRIES.free_motion(data.packed, _vector(robot, q, "q"), rest, rest, g)
+    _ENTRIES.free_motion(robot.packed, data.workspace, _vector(robot, q, "q"), rest, rest, g)
     return g
 
 
@@ -402,21 +365,19 @@ def forward_dynamics(robot: Robot, q, qd, tau, h_e=None, dynamics: str = NUMERIC
     generated module serves every call) and ``data`` as in :func:`inverse_dynamics`.  Raises
     :class:`SingularInertiaError` if B is not positive definite.
     """
-    if data is None:
-        data = _default_get(id(robot)) or _default_data(robot)
-    elif type(data) is not DynamicsData or data.robot is not robot:
-        _refuse_data(robot, data)
+    data = _data_of(robot, data)
     qdd = _empty(data.n)
     status = 1
     if h_e is None and type(q) is type(qd) is type(tau) is _ND and q.dtype is qd.dtype is tau.dtype is _F64:
         try:
-            status = data.entries[dynamics].forward_dynamics(data.packed, q, qd, tau, data.zero_wrench, qdd)
+            status = data.entries[dynamics].forward_dynamics(robot.packed, data.workspace, q, qd, tau,
+                                                             _NO_WRENCH, qdd)
         except _FALLBACK:
             pass
     if status == 1:
-        h = data.zero_wrench if h_e is None else h_e
+        h = _NO_WRENCH if h_e is None else h_e
         status = _entries_for(data, dynamics).forward_dynamics(
-            data.packed, *_vectors(robot, q=q, qd=qd, tau=tau, h_e=h), qdd)
+            robot.packed, data.workspace, *_vectors(robot, q=q, qd=qd, tau=tau, h_e=h), qdd)
     if status == 2:
         raise SingularInertiaError(f"robot {robot.name!r}: inertia matrix B(q) is not positive definite")
     return qdd
@@ -427,11 +388,8 @@ def kinetic_energy(robot: Robot, q, qd, data: DynamicsData | None = None) -> flo
 
         T = Σ_i ½ m_i ‖ṗ_Ci‖² + ½ ω_iᵀ I_Ci ω_i + ½ I_mi (z_miᵀ ω_{i−1} + k_ri q̇_i)²       (D6)
     """
-    if data is None:
-        data = _default_data(robot)
-    elif type(data) is not DynamicsData or data.robot is not robot:
-        _refuse_data(robot, data)
-    return float(_ENTRIES.kinetic_energy(data.packed, *_vectors(robot, q=q, qd=qd)))
+    data = _data_of(robot, data)
+    return float(_ENTRIES.kinetic_energy(robot.packed, data.workspace, *_vectors(robot, q=q, qd=qd)))
 
 
 def potential_energy(robot: Robot, q, data: DynamicsData | None = None) -> float:
@@ -439,8 +397,5 @@ def potential_energy(robot: Robot, q, data: DynamicsData | None = None) -> float
 
     Rotor masses are part of the link inertials, so this is the whole potential energy.
     """
-    if data is None:
-        data = _default_data(robot)
-    elif type(data) is not DynamicsData or data.robot is not robot:
-        _refuse_data(robot, data)
-    return float(_ENTRIES.potential_energy(data.packed, _vector(robot, q, "q")))
+    data = _data_of(robot, data)
+    return float(_ENTRIES.potential_energy(robot.packed, data.workspace, _vector(robot, q, "q")))

@@ -57,9 +57,9 @@ def dynamics_kernels(robots: list[Robot], closed_forms: bool = True) -> None:
     kernels.gravity_into(m, ws, q, out)
     kernels.bias_into(m, ws, q, qd, h_e, out)
     kernels.mass_matrix_into(m, ws, q, np.zeros((n, n)))
-    kernel_address(inverse_dynamics_packed, (_VEC,) * 5, types.none)
-    kernel_address(forward_dynamics_packed, (_VEC,) * 6, types.int64)
-    kernel_address(kinetic_energy_packed, (_VEC,) * 3, types.float64)
+    kernel_address(inverse_dynamics_packed, (_VEC,) * 6, types.none)
+    kernel_address(forward_dynamics_packed, (_VEC,) * 7, types.int64)
+    kernel_address(kinetic_energy_packed, (_VEC,) * 4, types.float64)
 
 
 def loop_and_task_kernels(robot: Robot) -> None:

@@ -15,11 +15,10 @@ from numba import njit, types
 
 from armlab.control.base import Controller, ProtocolError, Signal
 from armlab.control.gains import gain_matrix
-from armlab.dynamics import packed_copy
 from armlab.errors import ControllerSpecError
 from armlab.kernels.boundary import call_none, kernel_address
 from armlab.kernels.dynamics import DynamicsWorkspace, gravity_into, make_workspace
-from armlab.kernels.plant import inverse_dynamics_packed, rnea_packed, zero_wrench
+from armlab.kernels.plant import inverse_dynamics_packed, make_data, rnea_packed
 from armlab.model.robot import Robot, RobotArrays
 from armlab.references.joint import JointReference, reference_into
 from armlab.registry import scenario_type
@@ -39,8 +38,8 @@ def _check_reference(reference, n, field="reference"):
 # arrays by value).
 law_kernel = njit(cache=True, inline="always")
 _VEC = types.float64[::1]
-_INVERSE_DYNAMICS_TYPES = (_VEC,) * 5   # one tuple: kernel_address finds it by identity
-_RNEA_TYPES = (_VEC,) * 6
+_INVERSE_DYNAMICS_TYPES = (_VEC,) * 6   # one tuple: kernel_address finds it by identity
+_RNEA_TYPES = (_VEC,) * 7
 
 
 class JointPDGravityParams(NamedTuple):
@@ -134,7 +133,8 @@ class JointInverseDynamicsParams(NamedTuple):
     scratch."""
 
     inverse_dynamics: int           # address of the model's closed-form inverse dynamics, or 0
-    packed_model: np.ndarray        # the model packed (``armlab.kernels.plant``); own copy: holds scratch
+    model: np.ndarray               # the model's ``Robot.packed`` (never written)
+    model_data: np.ndarray          # its data: the workspace of its kernels (scratch)
     reference: np.ndarray           # a writeable copy of ``JointReference.data``
     kp: np.ndarray                  # (n, n) K_P [1/s²]
     kd: np.ndarray                  # (n, n) K_D [1/s]
@@ -144,9 +144,9 @@ class JointInverseDynamicsParams(NamedTuple):
     qdd_des: np.ndarray             # (n,) q̈_des(t) [m/s² | rad/s²]
     y: np.ndarray                   # (n,) outer-loop acceleration y [m/s² | rad/s²]
     rnea: int                       # address of ``rnea_packed`` (numeric model or a bias model), or 0
-    zero_wrench: np.ndarray         # (6,) zeros inside ``packed_model``: h_e of the RNEA call
-    bias_model: np.ndarray          # the packed model of n̂ when it is not B̂'s (else empty)
-    bias_wrench: np.ndarray         # (6,) zeros inside ``bias_model`` (h_e of its RNEA call)
+    zero_wrench: np.ndarray         # (6,) zeros: h_e of the RNEA calls
+    bias_model: np.ndarray          # ``Robot.packed`` of n̂'s model when it is not B̂'s (else empty)
+    bias_data: np.ndarray           # its data (scratch; empty without a bias model)
     zero: np.ndarray                # (n,) zeros: q̈ of the bias terms
     bias: np.ndarray                # (n,) scratch for n̂
 
@@ -155,7 +155,7 @@ class JointInverseDynamicsParams(NamedTuple):
 def joint_inverse_dynamics_law(t, q, qd, z, h_e, params, tau_out, zdot_out, signals_out):
     """(C2): τ = B̂(q) y + n̂(q, q̇), y = q̈_des + K_D (q̇_des − q̇) + K_P (q_des − q);
     ``params`` a :class:`JointInverseDynamicsParams`."""
-    inverse_dynamics, model, ref = params.inverse_dynamics, params.packed_model, params.reference
+    inverse_dynamics, model, ref = params.inverse_dynamics, params.model, params.reference
     kp, kd, diagonal, y = params.kp, params.kd, params.diagonal, params.y
     q_des, qd_des, qdd_des = params.q_des, params.qd_des, params.qdd_des
     n = q.shape[0]
@@ -174,16 +174,16 @@ def joint_inverse_dynamics_law(t, q, qd, z, h_e, params, tau_out, zdot_out, sign
     # plant's own ``rnea_packed`` with a zero wrench (skipped at run time): one compiled RNEA
     # serves plant and law, rather than a second one without the wrench (~4 s cold compile).
     if inverse_dynamics == 0:
-        call_none(params.rnea, (model, q, qd, y, params.zero_wrench, tau_out))
+        call_none(params.rnea, (model, params.model_data, q, qd, y, params.zero_wrench, tau_out))
     else:
-        call_none(inverse_dynamics, (model, q, qd, y, tau_out))
+        call_none(inverse_dynamics, (model, params.model_data, q, qd, y, tau_out))
     if params.bias_model.size:
         # n̂ from its own model (the seed's A7 mismatch): τ += n̂_bias(q, q̇) − n̂_model(q, q̇).
         bias, bias_model = params.bias, params.bias_model
-        call_none(params.rnea, (bias_model, q, qd, params.zero, params.bias_wrench, bias))
+        call_none(params.rnea, (bias_model, params.bias_data, q, qd, params.zero, params.zero_wrench, bias))
         for i in range(n):
             tau_out[i] += bias[i]
-        call_none(params.rnea, (model, q, qd, params.zero, params.zero_wrench, bias))
+        call_none(params.rnea, (model, params.model_data, q, qd, params.zero, params.zero_wrench, bias))
         for i in range(n):
             tau_out[i] -= bias[i]
     for i in range(n):
@@ -256,18 +256,16 @@ class JointInverseDynamics(Controller):
             raise ControllerSpecError(f"dynamics: {error}") from None
         diagonal = not (np.any(self.kp - np.diag(np.diag(self.kp)))
                         or np.any(self.kd - np.diag(np.diag(self.kd))))
-        packed_model = packed_copy(self.model)
         numeric = kernel is inverse_dynamics_packed
         bias = self.bias_model is not None
-        bias_model = packed_copy(self.bias_model) if bias else np.zeros(0)
         return JointInverseDynamicsParams(
             inverse_dynamics=0 if numeric else kernel_address(kernel, _INVERSE_DYNAMICS_TYPES, types.none),
-            packed_model=packed_model, reference=np.array(self.reference.data),
+            model=self.model.packed, model_data=make_data(n), reference=np.array(self.reference.data),
             kp=self.kp, kd=self.kd, diagonal=np.array([diagonal], dtype=np.int64),
             q_des=np.zeros(n), qd_des=np.zeros(n), qdd_des=np.zeros(n), y=np.zeros(n),
             rnea=kernel_address(rnea_packed, _RNEA_TYPES, types.none) if numeric or bias else 0,
-            zero_wrench=zero_wrench(packed_model),
-            bias_model=bias_model, bias_wrench=zero_wrench(bias_model) if bias else np.zeros(6),
+            zero_wrench=np.zeros(6), bias_model=self.bias_model.packed if bias else np.zeros(0),
+            bias_data=make_data(n) if bias else np.zeros(0),
             zero=np.zeros(n), bias=np.zeros(n))
 
     def signals(self):

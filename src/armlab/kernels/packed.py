@@ -1,9 +1,10 @@
-"""A robot's :class:`~armlab.model.robot.RobotArrays` packed into two flat arrays.
+"""A robot's :class:`~armlab.model.robot.RobotArrays` rebuilt from its packed array.
 
 Calling a compiled function from Python costs about 0.1–0.2 µs per array argument to unbox;
 the 18 arrays of ``RobotArrays`` plus the 17 of a dynamics workspace would cost far more than
 the dynamics itself.  The public functions therefore pass flat arrays and rebuild the named
-tuple of views inside compiled code with :func:`unpack_robot` (no copy, no allocation).
+tuple of views inside compiled code with :func:`unpack_robot` (no copy, no allocation); the
+layout is that of :func:`armlab.model.robot.pack_arrays`.
 
 The views are made by :func:`~armlab.kernels.boundary.buffer_view`, which writes the shape
 and strides of a C-contiguous view directly: ``data[o:o + k].reshape(shape)`` would call
@@ -19,24 +20,11 @@ from numba import njit
 from armlab.kernels.boundary import buffer_view
 from armlab.model.robot import RobotArrays
 
-# Float fields of RobotArrays in packing order (joint_type travels separately as int64).
-FLOAT_FIELDS = RobotArrays._fields[1:]
-
-
-def pack_robot(m: RobotArrays) -> tuple[np.ndarray, np.ndarray]:
-    """(joint_type (n,) int64, data (k,) float64) holding every field of ``m``.
-
-    The arrays stay writeable (but are never written) so that the kernels see the same array
-    types as with ``robot.arrays`` and compile once.
-    """
-    data = np.concatenate([np.asarray(getattr(m, name), dtype=float).ravel() for name in FLOAT_FIELDS])
-    joint_type = np.ascontiguousarray(m.joint_type, dtype=np.int64)
-    return joint_type, data
-
 
 @njit(cache=True, inline="always")
 def unpack_robot(joint_type, data):
-    """The :class:`RobotArrays` whose float arrays are views into ``data`` (see pack_robot).
+    """The :class:`RobotArrays` whose float arrays are views into ``data`` (the float fields of
+    :func:`~armlab.model.robot.pack_arrays`).
 
     Inlined into its caller so that the views are reference-counted as the caller is (see
     ``workspace_from_buffer`` in :mod:`armlab.kernels.dynamics`)."""

@@ -1,25 +1,27 @@
-"""A robot as one packed float64 array, and the kernels that take it.
+"""The kernels over a robot's model and data: its packed array and a scratch workspace.
 
 Compiled code pays for every array it receives: unboxing one from Python costs ~0.1 µs, and
 compiling a function whose arguments hold the 17 arrays of ``RobotArrays`` and the 17 of a
 ``DynamicsWorkspace`` costs ~0.6 s before it does anything.  The public dynamics functions and
-the simulation loop therefore pass a robot as one array and rebuild the named tuples of views
-inside compiled code (no copy, no allocation):
+the simulation loop therefore pass a robot as two arrays — the role of Pinocchio's ``Model``
+and ``Data`` — and rebuild the named tuples of views inside compiled code (no copy, no
+allocation):
 
-    [n | joint_type (n, int64 bits) | zero wrench (6) | workspace (workspace_size(n)) |
-     the float fields of RobotArrays (pack_robot)]
+    model  ``robot.packed`` (:func:`armlab.model.robot.pack_arrays`): the robot's numbers,
+           never written, shared by every caller and thread;
+    data   a workspace buffer of ``workspace_size(n)`` zeros (:func:`make_data`): scratch, one
+           per thread (``armlab.dynamics.DynamicsData``, a slice of the simulation's scratch).
 
-Kernels over a packed robot (all arrays float64, C-contiguous; (n,) unless stated):
+Kernels (all arrays float64, C-contiguous; (n,) unless stated):
 
-    zero_wrench(packed) -> (6,) view (Python)
-    rnea_packed(packed, q, qd, qdd, h_e, tau_out)          τ of (D1) with gravity and h_e
-    inverse_dynamics_packed(packed, q, qd, qdd, tau_out)   τ of (D1) with gravity, h_e = 0
-    forward_dynamics_packed(packed, q, qd, tau, h_e, qdd_out) -> 0 | 1 wrong length | 2 B not PD
-    kinetic_energy_packed(packed, q, qd) -> T [J] (NaN for a wrong length)
-    measure_packed(packed, q, qd, work, R_0e, p_0e, v_e)   pose (3, 3), (3,) and twist (6,) of Σ_e
-                                                           in Σ_0; work (18 n,) scratch
-
-The workspace inside is scratch: two threads must not use one packed array at once.
+    zero_wrench(model) -> (6,) view (Python)
+    rnea_packed(model, data, q, qd, qdd, h_e, tau_out)          τ of (D1) with gravity and h_e
+    inverse_dynamics_packed(model, data, q, qd, qdd, tau_out)   τ of (D1) with gravity, h_e = 0
+    forward_dynamics_packed(model, data, q, qd, tau, h_e, qdd_out) -> 0 | 1 wrong length |
+                                                                      2 B not PD
+    kinetic_energy_packed(model, data, q, qd) -> T [J] (NaN for a wrong length)
+    measure_packed(model, q, qd, work, R_0e, p_0e, v_e)   pose (3, 3), (3,) and twist (6,) of Σ_e
+                                                          in Σ_0; work (18 n,) scratch
 """
 
 from __future__ import annotations
@@ -38,43 +40,42 @@ from armlab.kernels.dynamics import (
 from armlab.kernels.energy import kinetic_energy_kernel
 from armlab.kernels.kinematics import end_effector_into, geometric_jacobian_into, joint_frames_into
 from armlab.kernels.linalg import cholesky_solve_inplace
-from armlab.kernels.packed import pack_robot, unpack_robot
-from armlab.model.robot import RobotArrays
-
-HEAD = 7
+from armlab.kernels.packed import unpack_robot
+from armlab.model.robot import PACKED_HEAD
 
 
-def pack_plant(arrays: RobotArrays) -> np.ndarray:
-    """The packed array of a robot (layout in the module docstring), workspace zeroed."""
-    joint_type, data = pack_robot(arrays)
-    n = joint_type.shape[0]
-    return np.concatenate([[float(n)], joint_type.view(np.float64), np.zeros(6),
-                           np.zeros(workspace_size(n)), data])
+def make_data(n: int) -> np.ndarray:
+    """A robot's data: the zeroed scratch workspace of the kernels below for n joints."""
+    return np.zeros(workspace_size(n))
 
 
-def zero_wrench(packed: np.ndarray) -> np.ndarray:
-    """The zero wrench (6,) inside ``packed`` (a view), for calls without contact."""
-    n = int(packed[0])
-    return packed[1 + n:7 + n]
+def zero_wrench(model: np.ndarray) -> np.ndarray:
+    """The zero wrench (6,) inside ``model`` (a view, never written), for calls without contact."""
+    n = int(model[0])
+    return model[1 + n:PACKED_HEAD + n]
 
 
 @njit(cache=True, inline="always")
-def unpack_plant(packed):
-    """(n, m, ws, zero wrench) of a packed robot: views into ``packed``, borrowed (they add no
-    reference count: ~35 arrays, whose counting would cost more than a small arm's dynamics,
-    and live no longer than the call that holds ``packed``)."""
-    packed = borrowed(packed)
-    n = int(packed[0])
-    joint_type = buffer_view(packed, 1, n, np.int64)
-    size = workspace_size(n)
-    ws = workspace_from_buffer(buffer_view(packed, HEAD + n, size, np.float64), n)
-    start = HEAD + n + size
-    m = unpack_robot(joint_type, buffer_view(packed, start, packed.shape[0] - start, np.float64))
-    return n, m, ws, buffer_view(packed, 1 + n, 6, np.float64)
+def unpack_model(model):
+    """(n, m): the joint count and the :class:`RobotArrays` of views into ``model``, borrowed
+    (they add no reference count: ~18 arrays, whose counting would cost more than a small arm's
+    dynamics, and live no longer than the call that holds ``model``)."""
+    model = borrowed(model)
+    n = int(model[0])
+    joint_type = buffer_view(model, 1, n, np.int64)
+    start = PACKED_HEAD + n
+    return n, unpack_robot(joint_type, buffer_view(model, start, model.shape[0] - start, np.float64))
+
+
+@njit(cache=True, inline="always")
+def unpack_plant(model, data):
+    """(n, m, ws): :func:`unpack_model` and the workspace of views into ``data``, borrowed."""
+    n, m = unpack_model(model)
+    return n, m, workspace_from_buffer(borrowed(data), n)
 
 
 @kernel
-def rnea_packed(packed, q, qd, qdd, h_e, tau_out):
+def rnea_packed(model, data, q, qd, qdd, h_e, tau_out):
     """τ = B q̈ + C q̇ + F_v q̇ + F_s sgn q̇ + g + Jᵀ h_e (D1) by the RNEA, leaving the joint
     transforms in the workspace; lengths unchecked.
 
@@ -85,29 +86,29 @@ def rnea_packed(packed, q, qd, qdd, h_e, tau_out):
     run time), so a run compiles one RNEA for plant and controller; the public inverse
     dynamics keeps its own inlined RNEA without the wrench (calling this kernel from there
     instead cost ~7 % of a numeric PRP run: one more call per stage)."""
-    n, m, ws, _ = unpack_plant(packed)
+    n, m, ws = unpack_plant(model, data)
     rnea_inline(m, ws, q, qd, qdd, 1.0, h_e, tau_out)
 
 
 @kernel
-def inverse_dynamics_packed(packed, q, qd, qdd, tau_out):
+def inverse_dynamics_packed(model, data, q, qd, qdd, tau_out):
     """τ = B q̈ + C q̇ + F_v q̇ + F_s sgn q̇ + g (D1, h_e = 0) by the RNEA; lengths unchecked
     (compiled callers pass n-vectors)."""
-    n, m, ws, _ = unpack_plant(packed)
+    n, m, ws = unpack_plant(model, data)
     rnea_inline(m, ws, q, qd, qdd, 1.0, None, tau_out)
 
 
 @kernel
-def forward_dynamics_packed(packed, q, qd, tau, h_e, qdd_out):
+def forward_dynamics_packed(model, data, q, qd, tau, h_e, qdd_out):
     """q̈ of (D1) as :func:`~armlab.kernels.dynamics.forward_dynamics_into` computes it:
     the bias by :func:`rnea_packed` (q̈ = 0), then the CRBA on the joint transforms it leaves
     in the workspace and an in-place Cholesky solve (D5).
     Returns 0 (done), 1 (a wrong length: nothing touched) or 2 (B not positive definite)."""
-    n, m, ws, _ = unpack_plant(packed)
+    n, m, ws = unpack_plant(model, data)
     if (q.shape[0] != n or qd.shape[0] != n or tau.shape[0] != n or h_e.shape[0] != 6
             or qdd_out.shape[0] != n):
         return 1
-    rnea_packed(packed, q, qd, ws.zero, h_e, qdd_out)
+    rnea_packed(model, data, q, qd, ws.zero, h_e, qdd_out)
     for k in range(n):
         qdd_out[k] = tau[k] - qdd_out[k]
     crba_body(m, ws, n, ws.L)
@@ -115,18 +116,18 @@ def forward_dynamics_packed(packed, q, qd, tau, h_e, qdd_out):
 
 
 @kernel
-def kinetic_energy_packed(packed, q, qd):
+def kinetic_energy_packed(model, data, q, qd):
     """Kinetic energy (D6) [J], or NaN for a wrong length."""
-    n, m, ws, _ = unpack_plant(packed)
+    n, m, ws = unpack_plant(model, data)
     if q.shape[0] != n or qd.shape[0] != n:
         return np.nan
     return kinetic_energy_kernel(m, ws, q, qd)
 
 
 @kernel
-def measure_packed(packed, q, qd, work, R_0e, p_0e, v_e):
+def measure_packed(model, q, qd, work, R_0e, p_0e, v_e):
     """Pose (R_0e, p_0e) and twist v_e = J(q) q̇ of Σ_e in Σ_0 (K2, K3); ``work`` (18 n,)."""
-    n, m, ws, _ = unpack_plant(packed)
+    n, m = unpack_model(model)
     R_frames = buffer_view(work, 0, (n, 3, 3), np.float64)
     p_frames = buffer_view(work, 9 * n, (n, 3), np.float64)
     J = buffer_view(work, 12 * n, (6, n), np.float64)

@@ -1,7 +1,7 @@
 """The scratch workspace of the dynamics kernels (``armlab.kernels.dynamics``).
 
 One float64 buffer holds every scratch array, so a caller allocates once (or lends a slice of
-its own buffer, as the packed robot of ``armlab.kernels.plant`` does) and the kernels never
+its own buffer, as the simulation loop does: a robot's data, ``armlab.kernels.plant``) and the kernels never
 allocate.  Every kernel writes the scratch it reads first, so a workspace can serve any
 sequence of calls; two threads must not share one.
 """

@@ -269,7 +269,8 @@ class Robot:
     limits read as absent, the package a zoo robot came from); ``tip`` the link (URDF) or body
     (MJCF) of the file that carries Σ_e ("" for armlab's own files); ``visuals`` the meshes
     of the file's links (:class:`Visual`), drawn by :mod:`armlab.viz.view3d`.  ``arrays`` is its
-    :class:`RobotArrays`, derived at construction.
+    :class:`RobotArrays` and ``packed`` the same numbers in one array (:func:`pack_arrays`, what
+    the compiled kernels take), both derived at construction and never written.
     """
 
     name: str
@@ -286,6 +287,7 @@ class Robot:
     tip: str = ""
     visuals: tuple[Visual, ...] = ()
     arrays: RobotArrays = field(init=False, repr=False, compare=False)
+    packed: np.ndarray = field(init=False, repr=False, compare=False)
 
     def __post_init__(self):
         object.__setattr__(self, "joints", tuple(self.joints))
@@ -301,6 +303,7 @@ class Robot:
             raise ValueError("a robot needs at least one joint")
         # Derived once, here, before anyone holds the robot: nothing is written into it later.
         object.__setattr__(self, "arrays", _robot_arrays(self))
+        object.__setattr__(self, "packed", pack_arrays(self.arrays))
 
     def __hash__(self):
         return id(self)
@@ -440,3 +443,24 @@ def _robot_arrays(robot: Robot) -> RobotArrays:
         gravity=np.array(robot.gravity, dtype=float),
     )
     return arrays
+
+
+# The float fields of RobotArrays in the order ``pack_arrays`` lays them out.
+PACKED_FLOAT_FIELDS = RobotArrays._fields[1:]
+# Entries before the float fields: n, then n joint types, then the zero wrench (6).
+PACKED_HEAD = 7
+
+
+def pack_arrays(m: RobotArrays) -> np.ndarray:
+    """The robot's model as one float64 array, the form the compiled kernels take
+    (``armlab.kernels.plant`` rebuilds the :class:`RobotArrays` of views from it)::
+
+        [n | joint_type (n, int64 bits) | zero wrench (6) | the float fields, in field order]
+
+    One array because a compiled function pays for every array it receives (unboxing ~0.1 µs
+    each from Python, and compile time for each array of its signature).  The array stays
+    writeable, as ``arrays`` does, so that every caller gives the kernels one array type (a
+    read-only one would be another type, and another compile); nothing writes it."""
+    joint_type = np.ascontiguousarray(m.joint_type, dtype=np.int64)
+    floats = [np.asarray(getattr(m, name), dtype=float).ravel() for name in PACKED_FLOAT_FIELDS]
+    return np.concatenate([[float(joint_type.shape[0])], joint_type.view(np.float64), np.zeros(6), *floats])

@@ -28,16 +28,17 @@ their own modules, are compiled for the NamedTuple itself.  A NamedTuple and the
 its fields have the same numba data model (memory layout and calling convention): both read
 the same stack copy and take the same call.
 
-The plant travels as one packed array ``pp`` (``armlab.kernels.plant``): arguments made of
-many arrays cost compile time in every function that receives them.  ``fn`` (int64 array)
-holds the addresses, in this order (``FN_*``):
+The plant's model travels as its packed array ``pp`` (``Robot.packed``, never written) and its
+data ``pd`` (the kernels' workspace) is the last block of the scratch array ``work``: arguments
+made of many arrays cost compile time in every function that receives them.  ``fn`` (int64
+array) holds the addresses, in this order (``FN_*``):
 
     law_entry(cp, law, t, work, n, k, s)       the law on the scratch views of ``work``
     law(t, q, qd, z, h_e, cparams, tau_out, zdot_out, signals_out)     (0 with an entry)
     env_trampoline(ep, env, t, R_0e, p_0e, v_e, h_e_out)
     env(t, R_0e, p_0e, v_e, eparams, h_e_out)
-    forward_dynamics(pp, q, qd, tau, h_e, qdd_out) -> 0 ok | 1 bad length | 2 B not PD
-    kinetic_energy(pp, q, qd) -> T
+    forward_dynamics(pp, pd, q, qd, tau, h_e, qdd_out) -> 0 ok | 1 bad length | 2 B not PD
+    kinetic_energy(pp, pd, q, qd) -> T
     measure(pp, q, qd, work, R_0e, p_0e, v_e)
     disturbance(dist, t, q, qd, tau_d_out)               (``armlab.simulation.disturbances``)
 
@@ -95,6 +96,7 @@ from armlab.kernels.boundary import (
 )
 from armlab.kernels.environment import FreeSpaceParams, free_space_law
 from armlab.kernels.plant import forward_dynamics_packed, kinetic_energy_packed, measure_packed
+from armlab.kernels.workspace import workspace_size
 from armlab.simulation.disturbances import disturbance_into
 
 (FN_LAW_ENTRY, FN_LAW, FN_ENV_TRAMPOLINE, FN_ENV, FN_FORWARD_DYNAMICS, FN_KINETIC_ENERGY,
@@ -104,9 +106,10 @@ loop_kernel = njit(cache=True, nogil=True)
 
 
 def work_size(n: int, k: int, s: int) -> int:
-    """Length of the flat scratch array for n joints, k controller states, s signal columns."""
+    """Length of the flat scratch array for n joints, k controller states, s signal columns;
+    its last ``workspace_size(n)`` entries are the plant's data."""
     m = 2 * n + k
-    return 7 * n + 2 * k + s + 6 + 9 + 3 + 6 + 5 * m + 18 * n
+    return 7 * n + 2 * k + s + 6 + 9 + 3 + 6 + 5 * m + 18 * n + (45 * n + n * n + 9)
 
 
 def zdot_slice(n: int, k: int) -> slice:
@@ -252,7 +255,7 @@ def _addresses(law, env_law, cparams, eparams, forward_dynamics, kinetic_energy,
     fn[FN_LAW_ENTRY] = (kernel_address(entry, law_entry_types(ctype), none) if own else
                         kernel_address(law_trampoline, law_entry_types(cplain), none))
     fn[FN_LAW] = 0 if own else kernel_address(law, (f64, vec, vec, vec, vec, ctype, vec, vec, vec), none)
-    fn[FN_FORWARD_DYNAMICS] = kernel_address(fd, (vec,) * 6, _I64)
+    fn[FN_FORWARD_DYNAMICS] = kernel_address(fd, (vec,) * 7, _I64)
     if has_env:
         fn[FN_ENV_TRAMPOLINE] = kernel_address(env_trampoline, (types.CPointer(eplain), _I64, f64, mat, vec,
                                                                 vec, vec), none)
@@ -260,14 +263,14 @@ def _addresses(law, env_law, cparams, eparams, forward_dynamics, kinetic_energy,
         fn[FN_MEASURE] = kernel_address(measure_packed, (vec, vec, vec, vec, mat, vec, vec), none)
     if has_dist:
         fn[FN_DISTURBANCE] = kernel_address(disturbance_into, (vec, f64, vec, vec, vec), none)
-    fn[FN_KINETIC_ENERGY] = kernel_address(ke, (vec,) * 3, f64)
+    fn[FN_KINETIC_ENERGY] = kernel_address(ke, (vec,) * 4, f64)
     return fn
 
 
 @njit(cache=True, inline="always")
 def scratch_views(work, n, k, s):
     """The named scratch views of ``work`` (see :func:`work_size`): the law's first
-    (:func:`law_views`), then the loop's own."""
+    (:func:`law_views`), then the loop's own, the plant's data last (:func:`plant_data`)."""
     f = np.float64
     m = 2 * n + k
     q, qd, z, h_e, tau_c, zdot, sig = law_views(work, n, k, s)
@@ -291,7 +294,15 @@ def scratch_views(work, n, k, s):
     K = buffer_view(work, o, (4, m), f)
     o += 4 * m
     meas = buffer_view(work, o, 18 * n, f)
-    return (q, qd, z, tau_c, tau_a, tau_d, tau_p, h_e, zdot, sig, R_0e, p_0e, v_e, qdd, xt, K, meas)
+    return (q, qd, z, tau_c, tau_a, tau_d, tau_p, h_e, zdot, sig, R_0e, p_0e, v_e, qdd, xt, K, meas,
+            plant_data(work, n))
+
+
+@njit(cache=True, inline="always")
+def plant_data(work, n):
+    """The plant's data: the last ``workspace_size(n)`` entries of ``work``."""
+    size = workspace_size(n)
+    return buffer_view(work, work.shape[0] - size, size, np.float64)
 
 
 @njit(cache=True)
@@ -331,7 +342,7 @@ def stage(fn, t, x, n, pp, cp, ep, dist, has_env, call_law, z_rate, lim, sc, xdo
             value = -lim[i]
         tau_a[i] = value
         tau_p[i] = value + tau_d[i] if has_dist else value
-    status = call_int(fn[FN_FORWARD_DYNAMICS], (pp, q, qd, tau_p, h_e, qdd))
+    status = call_int(fn[FN_FORWARD_DYNAMICS], (pp, sc[17], q, qd, tau_p, h_e, qdd))
     for i in range(n):
         xdot[i] = x[n + i]
         xdot[n + i] = qdd[i]
@@ -341,8 +352,9 @@ def stage(fn, t, x, n, pp, cp, ep, dist, has_env, call_law, z_rate, lim, sc, xdo
 
 
 @njit(cache=True, inline="always")
-def check_state(fn, pp, x, n, q_lo, q_hi, ke_max, check_energy, q, qd):
-    """(status, joint) of the divergence checks on x (0 when fine); q, qd scratch."""
+def check_state(fn, pp, pd, x, n, q_lo, q_hi, ke_max, check_energy, q, qd):
+    """(status, joint) of the divergence checks on x (0 when fine); q, qd scratch, pd the
+    plant's data."""
     for i in range(x.shape[0]):
         if not np.isfinite(x[i]):
             return 1, (i % n if i < 2 * n else -1)
@@ -353,7 +365,7 @@ def check_state(fn, pp, x, n, q_lo, q_hi, ke_max, check_energy, q, qd):
         for i in range(n):
             q[i] = x[i]
             qd[i] = x[n + i]
-        if call_float(fn[FN_KINETIC_ENERGY], (pp, q, qd)) > ke_max:
+        if call_float(fn[FN_KINETIC_ENERGY], (pp, pd, q, qd)) > ke_max:
             return 3, -1
     return 0, -1
 
@@ -459,7 +471,7 @@ def rk4_core(fn, pp, cp, ep, dist, x, work, fset, iset, lim, q_lo, q_hi, out):
                     return 0, rows, n_steps, -1
         for i in range(m):
             x[i] += dt / 6.0 * (K[0, i] + 2.0 * K[1, i] + 2.0 * K[2, i] + K[3, i])
-        status, joint = check_state(fn, pp, x, n, q_lo, q_hi, ke_max,
+        status, joint = check_state(fn, pp, sc[17], x, n, q_lo, q_hi, ke_max,
                                     (j + 1) % energy_every == 0, sc[0], sc[1])
         if status != 0:
             return status, rows, j + 1, joint
@@ -485,8 +497,9 @@ def check_rows(fn, pp, xs, q_lo, q_hi, ke_max, work):
     n = int(pp[0])
     q = buffer_view(work, 0, n, np.float64)
     qd = buffer_view(work, n, n, np.float64)
+    pd = plant_data(work, n)
     for r in range(xs.shape[0]):
-        status, joint = check_state(fn, pp, xs[r], n, q_lo, q_hi, ke_max, True, q, qd)
+        status, joint = check_state(fn, pp, pd, xs[r], n, q_lo, q_hi, ke_max, True, q, qd)
         if status != 0:
             return r, status, joint
     return -1, 0, -1

@@ -35,9 +35,9 @@ class _Stage:
     """ẋ = f(t, x) of the closed loop with a Python law; the scratch of the last call (τ_c,
     τ_a, τ_d, h_e, q̈, ż, signals) is kept for logging and the zero-order hold."""
 
-    def __init__(self, setup, law, params, pp):
+    def __init__(self, setup, law, params, plant):
         n, k = setup.n, setup.k
-        self.setup, self.law, self.params, self.pp = setup, law, params, pp
+        self.setup, self.law, self.params, self.plant = setup, law, params, plant
         self.n, self.k = n, k
         self.tau_c, self.tau_a, self.tau_d = np.zeros(n), np.zeros(n), np.zeros(n)
         self.h_e, self.qdd, self.zdot = np.zeros(6), np.zeros(n), np.zeros(k)
@@ -51,7 +51,7 @@ class _Stage:
         n, setup = self.n, self.setup
         q, qd, z = x[:n].copy(), x[n:2 * n].copy(), x[2 * n:].copy()
         if self.has_env:
-            measure_packed(self.pp, q, qd, self.meas, self.R_0e, self.p_0e, self.v_e)
+            measure_packed(self.plant[0], q, qd, self.meas, self.R_0e, self.p_0e, self.v_e)
             setup.env_law(t, self.R_0e, self.p_0e, self.v_e, setup.eparams, self.h_e)
         if call_law:
             self.law(t, q, qd, z, self.h_e.copy(), self.params, self.tau_c, self.zdot, self.sig)
@@ -59,7 +59,7 @@ class _Stage:
             disturbance_into(setup.dist, t, q, qd, self.tau_d)
         np.clip(self.tau_c, -setup.lim, setup.lim, out=self.tau_a)
         tau_p = self.tau_a + self.tau_d if self.has_dist else self.tau_a.copy()
-        status = setup.forward_dynamics(self.pp, q, qd, tau_p, self.h_e, self.qdd)
+        status = setup.forward_dynamics(*self.plant, q, qd, tau_p, self.h_e, self.qdd)
         xdot[:n] = x[n:2 * n]
         xdot[n:2 * n] = self.qdd
         xdot[2 * n:] = z_rate * self.zdot
@@ -86,7 +86,7 @@ def _log(views, row, t, x, stage, n, k):
         start += width
 
 
-def _check(setup, pp, x, energy):
+def _check(setup, plant, x, energy):
     """(status, joint) of the divergence checks of the compiled loop (``check_state``)."""
     n = setup.n
     bad = np.flatnonzero(~np.isfinite(x))
@@ -95,28 +95,28 @@ def _check(setup, pp, x, energy):
     outside = np.flatnonzero((x[:n] < setup.q_lo) | (x[:n] > setup.q_hi))
     if outside.size:
         return 2, int(outside[0])
-    if energy and setup.kinetic_energy(pp, x[:n].copy(), x[n:2 * n].copy()) > setup.ke_max:
+    if energy and setup.kinetic_energy(*plant, x[:n].copy(), x[n:2 * n].copy()) > setup.ke_max:
         return 3, -1
     return 0, -1
 
 
-def run(setup, law, params, pp, method: str, *, rtol: float, atol: float, integrator: str):
+def run(setup, law, params, plant, method: str, *, rtol: float, atol: float, integrator: str):
     """(status, rows, step, joint, views, wall time) of a run with the Python ``law``."""
     if method == "adaptive" and setup.sampled:
         raise SimulationError("control_period: sampled control with a Python law runs with "
                               "method='rk4' (or compile the law with numba.njit)")
-    stage = _Stage(setup, law, params, pp)
+    stage = _Stage(setup, law, params, plant)
     out = setup.outputs()
     views = setup.views(out)
     start = time.perf_counter()
     if method == "rk4":
-        status, rows, step, joint = _rk4(setup, stage, pp, views)
+        status, rows, step, joint = _rk4(setup, stage, plant, views)
     else:
-        status, rows, step, joint = _adaptive(setup, stage, pp, views, rtol, atol, integrator)
+        status, rows, step, joint = _adaptive(setup, stage, plant, views, rtol, atol, integrator)
     return status, rows, step, joint, views, time.perf_counter() - start
 
 
-def _rk4(setup, stage, pp, views):
+def _rk4(setup, stage, plant, views):
     n, k, dt, m = setup.n, setup.k, setup.dt, setup.x0.size
     x = setup.x0.copy()
     K = np.zeros((4, m))
@@ -141,13 +141,13 @@ def _rk4(setup, stage, pp, views):
                 if j == setup.n_steps:
                     return 0, rows, setup.n_steps, -1
         x += dt / 6.0 * (K[0] + 2.0 * K[1] + 2.0 * K[2] + K[3])
-        status, joint = _check(setup, pp, x, (j + 1) % 10 == 0)
+        status, joint = _check(setup, plant, x, (j + 1) % 10 == 0)
         if status != 0:
             return status, rows, j + 1, joint
     return 0, rows, setup.n_steps, -1
 
 
-def _adaptive(setup, stage, pp, views, rtol, atol, integrator):
+def _adaptive(setup, stage, plant, views, rtol, atol, integrator):
     from scipy.integrate import solve_ivp
 
     xdot = np.zeros_like(setup.x0)
@@ -162,7 +162,7 @@ def _adaptive(setup, stage, pp, views, rtol, atol, integrator):
     xs = solution.y.T
     rows, status, step, joint = 0, 0, 0, -1
     for j, (t, x) in enumerate(zip(solution.t, xs, strict=True)):
-        bad, where = _check(setup, pp, x, True)
+        bad, where = _check(setup, plant, x, True)
         if bad:
             status, step, joint = bad, j, where
             break

@@ -62,9 +62,9 @@ from armlab.caches import repaired
 from armlab.control.base import Controller, Environment, ProtocolError, Signal
 from armlab.control.entry import generated_entry
 from armlab.control.function import arity, check_params, compile_problem, is_compiled
-from armlab.dynamics import packed_copy
 from armlab.errors import SimulationDiverged, SimulationError, SimulationInterrupted
 from armlab.kernels.environment import FreeSpaceParams, free_space_law
+from armlab.kernels.plant import make_data
 from armlab.simulation import loop, python_loop
 from armlab.simulation.disturbances import encode_disturbances
 from armlab.simulation.joint_limits import _user_stacklevel, annotate, check_mode, joint_stop
@@ -210,8 +210,8 @@ class _Setup:
                                              dist=self.dist[0] > 0, h_e=environment is not None)
 
     def workspace(self, cparams):
-        """(fn, pp, work) of one run: the loop's addresses, the packed plant (its own copy:
-        it holds scratch) and the loop's scratch memory."""
+        """(fn, pp, work) of one run: the loop's addresses, the plant's model (``Robot.packed``)
+        and the loop's scratch memory (the plant's data in it)."""
         if self.python_law is not None:
             raise ProtocolError(f"{type(self.controller).__name__}.law: a Python law runs with "
                                 "simulate; simulate_batch needs it compiled (numba.njit)")
@@ -224,7 +224,7 @@ class _Setup:
         except TypingError as error:
             raise ProtocolError(compile_problem(type(self.controller).__name__, error)) from None
         work = np.zeros(loop.work_size(self.n, self.k, self.sig_width))
-        return fn, packed_copy(self.plant), work
+        return fn, self.plant.packed, work
 
     def outputs(self, rows=None):
         """The flat log of ``rows`` rows (``loop.log_views`` gives its blocks).  Every
@@ -431,7 +431,7 @@ def simulate(plant, controller, *, q0, qd0=None, t_final, dt, method="rk4", cont
 
 def _run_python(setup, cparams, meta, on_divergence, method, rtol, atol, integrator):
     status, rows, step, joint, views, wall = python_loop.run(setup, setup.python_law, cparams,
-                                                             packed_copy(setup.plant), method,
+                                                             (setup.plant.packed, make_data(setup.n)), method,
                                                              rtol=rtol, atol=atol, integrator=integrator)
     meta = {**(meta or {}), "wall_time": wall, "law": "python"}
     result = setup.result(views, rows, method, meta)

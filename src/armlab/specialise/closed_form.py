@@ -3,14 +3,14 @@
 A general recursive algorithm pays for its generality at every call: it loops over joints,
 multiplies by zeros and ones of the joint geometry and reads the robot's numbers from memory.
 Code written out for one robot, with its numbers in the formulas, is several times faster.
-This module makes it available to compiled code with the signatures of the packed-robot
+This module makes it available to compiled code with the signatures of the model-and-data
 kernels of ``armlab.kernels.plant``:
 
-    inverse_dynamics(packed, q, qd, qdd, tau_out)                  τ of (D1), h_e = 0
-    forward_dynamics(packed, q, qd, tau, h_e, qdd_out) -> status    q̈ of (D1), (D5)
-    kinetic_energy(packed, q, qd) -> T                              (D6)
-    mass_matrix(packed, q, B_out) -> status                         B(q) (D2)
-    checked_inverse_dynamics(packed, q, qd, qdd, tau_out) -> status   (for calls from Python)
+    inverse_dynamics(model, data, q, qd, qdd, tau_out)             τ of (D1), h_e = 0
+    forward_dynamics(model, data, q, qd, tau, h_e, qdd_out) -> status   q̈ of (D1), (D5)
+    kinetic_energy(model, data, q, qd) -> T                         (D6)
+    mass_matrix(model, data, q, B_out) -> status                    B(q) (D2)
+    checked_inverse_dynamics(model, data, q, qd, qdd, tau_out) -> status   (for calls from Python)
 
 and to Python: ``armlab.inverse_dynamics``, ``inertia_matrix`` and ``forward_dynamics`` take
 the same ``dynamics=`` choice (their default is the numeric kernels).
@@ -56,6 +56,7 @@ import sys
 import tempfile
 import threading
 import warnings
+import weakref
 from pathlib import Path
 
 import numpy as np
@@ -67,7 +68,6 @@ from armlab.kernels.plant import (
     forward_dynamics_packed,
     inverse_dynamics_packed,
     kinetic_energy_packed,
-    pack_plant,
 )
 from armlab.model.robot import Robot
 
@@ -81,7 +81,8 @@ _OUTCOMES: dict = {}
 _LOCK = threading.Lock()
 _GENERATED_LOCK = threading.Lock()
 # Robot identity -> (robot, generator, key) of the last robots seen (see robot_key).
-_KEYS: dict = {}
+# Each robot's key, for as long as the robot lives (a robot hashes by identity).
+_KEYS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 _KEYS_LOCK = threading.Lock()
 _PACKAGE = Path(__file__).resolve().parents[1]            # armlab/
 
@@ -121,16 +122,13 @@ def _sources_digest() -> bytes:
 def robot_key(robot: Robot) -> str:
     """Hash of everything a robot's generated code depends on: its numbers, its file's
     expressions and the sources of its generator.  Each simulation asks for it twice (~0.1 ms
-    each to compute): the last robots' keys are kept here, with the robots (so that their
-    identities stay theirs)."""
-    known = _KEYS.get(id(robot))
-    if known is not None and known[0] is robot:
-        return known[1]
-    key = _robot_key(robot)
-    with _KEYS_LOCK:
-        while len(_KEYS) >= 64:
-            del _KEYS[next(iter(_KEYS))]
-        _KEYS[id(robot)] = (robot, key)
+    each to compute): a robot's key is kept beside it, in a weak map, until the robot is gone
+    (nothing is written into the robot)."""
+    key = _KEYS.get(robot)
+    if key is None:
+        key = _robot_key(robot)
+        with _KEYS_LOCK:
+            _KEYS[robot] = key
     return key
 
 
@@ -269,7 +267,7 @@ def _verify(robot: Robot, module) -> str:
         return tau
 
     rng = np.random.default_rng(20261122)
-    packed = pack_plant(robot.arrays)  # ignored by the generated code
+    model, data = robot.packed, np.zeros(0)  # ignored by the generated code
     lo = np.where(np.isfinite(robot.arrays.q_min), robot.arrays.q_min, -np.pi)
     hi = np.where(np.isfinite(robot.arrays.q_max), robot.arrays.q_max, np.pi)
     for trial in range(4):
@@ -280,25 +278,25 @@ def _verify(robot: Robot, module) -> str:
         h_e = rng.normal(size=6)
         got = np.zeros(n)
         expected = rnea(q, qd, qdd)
-        module.inverse_dynamics(packed, q, qd, qdd, got)
+        module.inverse_dynamics(model, data, q, qd, qdd, got)
         if not np.allclose(got, expected, rtol=1e-9, atol=1e-9 * max(1.0, np.abs(expected).max())):
             return f"inverse dynamics differ from the numeric kernels at q = {q.tolist()}"
-        if module.forward_dynamics(packed, q, qd, tau, h_e, got) == 0:
+        if module.forward_dynamics(model, data, q, qd, tau, h_e, got) == 0:
             back = rnea(q, qd, got, h_e=h_e)
             if not np.allclose(back, tau, rtol=1e-8, atol=1e-8 * max(1.0, np.abs(back).max())):
                 return f"forward dynamics disagree with the numeric RNEA at q = {q.tolist()}"
         energy = 0.5 * float(qd @ rnea(q, zero, qd, gravity_scale=0.0))
-        if not np.isclose(module.kinetic_energy(packed, q, qd), energy, rtol=1e-9, atol=1e-12):
+        if not np.isclose(module.kinetic_energy(model, data, q, qd), energy, rtol=1e-9, atol=1e-12):
             return f"kinetic energy differs from the numeric kernels at q = {q.tolist()}"
         # Column j of B is the RNEA at q̇ = 0, q̈ = e_j without gravity.
         columns = np.column_stack([rnea(q, zero, e, gravity_scale=0.0) for e in np.eye(n)])
         B = np.zeros((n, n))
-        if (module.mass_matrix(packed, q, B) != 0
+        if (module.mass_matrix(model, data, q, B) != 0
                 or not np.allclose(B, columns, rtol=1e-9, atol=1e-9 * max(1.0, np.abs(columns).max()))):
             return f"inertia matrix differs from the numeric kernels at q = {q.tolist()}"
         direct, checked = np.zeros(n), np.zeros(n)
-        module.inverse_dynamics(packed, q, qd, qdd, direct)
-        if (module.checked_inverse_dynamics(packed, q, qd, qdd, checked) != 0
+        module.inverse_dynamics(model, data, q, qd, qdd, direct)
+        if (module.checked_inverse_dynamics(model, data, q, qd, qdd, checked) != 0
                 or not np.array_equal(checked, direct)):
             return "the checked inverse dynamics differ from the module's inverse dynamics"
     return ""
@@ -416,6 +414,6 @@ def plant_kernels(robot: Robot, dynamics: str = "auto", field: str = "dynamics")
 
 
 def inverse_dynamics_kernel(robot: Robot, dynamics: str = "auto", field: str = "dynamics"):
-    """A compiled ``inverse_dynamics(packed, q, qd, qdd, tau_out)`` for ``robot``."""
+    """A compiled ``inverse_dynamics(model, data, q, qd, qdd, tau_out)`` for ``robot``."""
     module = chosen_module(robot, dynamics, field)
     return inverse_dynamics_packed if module is None else module.inverse_dynamics

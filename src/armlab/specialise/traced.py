@@ -22,21 +22,21 @@ Coulomb friction is written out per joint (the kernels trace a frictionless copy
 robot), and the wrench term is traced on its own (its run-time test, ``_has_wrench``, is taken
 as true while tracing).
 
-The module has the interface of the packed-robot kernels (``armlab.kernels.plant``):
+The module has the interface of the model-and-data kernels (``armlab.kernels.plant``):
 
-    inverse_dynamics(packed, q, qd, qdd, tau_out)
+    inverse_dynamics(model, data, q, qd, qdd, tau_out)
         τ = RNEA(q, q̇, q̈) + F_v q̇ + F_s sgn q̇                                  (D1, h_e = 0)
-    forward_dynamics(packed, q, qd, tau, h_e, qdd_out) -> 0 | 1 wrong length | 2 B not PD
+    forward_dynamics(model, data, q, qd, tau, h_e, qdd_out) -> 0 | 1 wrong length | 2 B not PD
         B(q) q̈ = τ − RNEA(q, q̇, 0) − F_v q̇ − F_s sgn q̇ − Jᵀ(q) h_e              (D1, D5)
         B from the CRBA (D2); Jᵀ h_e = RNEA(q, 0, 0) with gravity off and h_e on (the
         recursion is linear in h_e, and with q̇ = q̈ = 0, g_0 = 0 nothing else is left), only
         evaluated when h_e ≠ 0; the LDLᵀ solve of the Lagrange modules, whose entries
         B_ij ≡ 0 generate no code
-    kinetic_energy(packed, q, qd) -> T = ½ q̇ᵀ B(q) q̇                           (D6)
-    mass_matrix(packed, q, B_out) -> 0 | 1 wrong length      B(q) by the CRBA     (D2)
-    checked_inverse_dynamics(packed, q, qd, qdd, tau_out) -> 0 | 1 wrong length
+    kinetic_energy(model, data, q, qd) -> T = ½ q̇ᵀ B(q) q̇                     (D6)
+    mass_matrix(model, data, q, B_out) -> 0 | 1 wrong length  B(q) by the CRBA  (D2)
+    checked_inverse_dynamics(model, data, q, qd, qdd, tau_out) -> 0 | 1 wrong length
 
-The packed robot is ignored (the numbers are in the code).  ``armlab.specialise.closed_form``
+The model and data are ignored (the numbers are in the code).  ``armlab.specialise.closed_form``
 writes the module to its cache folder, compiles it with numba (``cache=True``) and checks it
 against the numeric RNEA before use.
 """
@@ -370,8 +370,8 @@ def _ldl_solve(n: int, zero, rhs: list[str]) -> list[str]:
 
 
 def mass_matrix_lines(n: int, body: list[str], entries: list[str]) -> list[str]:
-    """``mass_matrix(packed, q, B_out)``: ``body`` computes the n² row-major ``entries``."""
-    return ["@njit(cache=True)", "def mass_matrix(packed, q, B_out):",
+    """``mass_matrix(model, data, q, B_out)``: ``body`` computes the n² row-major ``entries``."""
+    return ["@njit(cache=True)", "def mass_matrix(model, data, q, B_out):",
             '    """B(q) (D2); 1 for a wrong length."""',
             f"    if q.shape[0] != {n} or B_out.shape[0] != {n} or B_out.shape[1] != {n}:",
             "        return 1", *body,
@@ -382,12 +382,12 @@ def mass_matrix_lines(n: int, body: list[str], entries: list[str]) -> list[str]:
 def checked_inverse_lines(n: int) -> list[str]:
     """``checked_inverse_dynamics``: the module's ``inverse_dynamics`` after a length check."""
     return ["@njit(cache=True)",
-            "def checked_inverse_dynamics(packed, q, qd, qdd, tau_out):",
+            "def checked_inverse_dynamics(model, data, q, qd, qdd, tau_out):",
             '    """inverse_dynamics for calls from Python; 1 for a wrong length."""',
             f"    if (q.shape[0] != {n} or qd.shape[0] != {n} or qdd.shape[0] != {n}"
             f" or tau_out.shape[0] != {n}):",
             "        return 1",
-            "    inverse_dynamics(packed, q, qd, qdd, tau_out)",
+            "    inverse_dynamics(model, data, q, qd, qdd, tau_out)",
             "    return 0"]
 
 
@@ -404,7 +404,7 @@ def traced_source(robot: Robot, *, key: str) -> str:
     qdd = tracer.inputs(tape, "qdd", "qdd", n)
     tau = tracer.rnea(q, qd, qdd, 1.0)
     body, _ = _live(tape.lines, _names(tau))
-    inverse = [DECORATOR, "def inverse_dynamics(packed, q, qd, qdd, tau_out):",
+    inverse = [DECORATOR, "def inverse_dynamics(model, data, q, qd, qdd, tau_out):",
                '    """τ = B q̈ + C q̇ + g + F_v q̇ + F_s sgn q̇ (D1, h_e = 0)."""', *body, *friction,
                *[f"    tau_out[{i}] = {_text(tau[i])}{plus_f[i]}" for i in range(n)]]
 
@@ -424,7 +424,7 @@ def traced_source(robot: Robot, *, key: str) -> str:
     main_lines, _ = _live(main, needed | _names(bias) | _names(B[i, j] for i, j in lower))
     wrench_lines = [f"    {line}" for line in block_lines] + [
         f"        r{i} -= {_text(wrench[i])}" for i in range(n) if not _zero(wrench[i])]
-    forward = [DECORATOR, "def forward_dynamics(packed, q, qd, tau, h_e, qdd_out):",
+    forward = [DECORATOR, "def forward_dynamics(model, data, q, qd, tau, h_e, qdd_out):",
                '    """q̈ of B q̈ = τ − C q̇ − g − F_v q̇ − F_s sgn q̇ − Jᵀ h_e (D1, D5); 1 for a wrong'
                ' length, 2 if B is not PD."""',
                f"    if (q.shape[0] != {n} or qd.shape[0] != {n} or tau.shape[0] != {n}"
@@ -453,7 +453,7 @@ def traced_source(robot: Robot, *, key: str) -> str:
         total = total + qd[i] * row
     energy = 0.5 * total
     body, _ = _live(tape.lines, _names([energy]))
-    kinetic = [DECORATOR, "def kinetic_energy(packed, q, qd):",
+    kinetic = [DECORATOR, "def kinetic_energy(model, data, q, qd):",
                '    """T = ½ q̇ᵀ B q̇ (D6) [J]; NaN for a wrong length."""',
                f"    if q.shape[0] != {n} or qd.shape[0] != {n}:", "        return math.nan",
                *body, f"    return {_text(energy)}"]

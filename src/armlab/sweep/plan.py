@@ -161,10 +161,8 @@ class BatchPlan:
         if setup.python_law is not None:
             raise RolloutUnsupported(self.source, "controller", "a law in plain Python runs one by one")
         cparams = scenario.controller.params()
-        from armlab.dynamics import packed_copy
-
         inputs = {"controller": _Flat(cparams), "environment": _Flat(setup.eparams),
-                  "plant": packed_copy(setup.plant), "x0": setup.x0.copy(), "lim": setup.lim.copy(),
+                  "plant": setup.plant.packed.copy(), "x0": setup.x0.copy(), "lim": setup.lim.copy(),
                   "dist": setup.dist.copy()}
         return scenario, setup, inputs
 
