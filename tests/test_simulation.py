@@ -12,7 +12,7 @@ from armlab.control.adaptive import SlotineLi1DoF
 from armlab.control.entry import generated_entry
 from armlab.control.joint_space import JointInverseDynamics, JointPDGravity
 from armlab.references.joint import Constant, Sinusoid
-from armlab.simulation import SimulationDiverged, SimulationError, loop, simulate, simulate_batch
+from armlab.simulation import SimulationDiverged, SimulationError, loop, simulate, simulate_batch, simulator
 from armlab.simulation.disturbances import ConstantTorque, QuadraticFriction, SinusoidalTorque, StepTorque
 from armlab.simulation.results import SimulationResult
 
@@ -131,15 +131,6 @@ def test_same_run_twice_is_bit_identical():
         assert array.tobytes() == second.groups()[name].tobytes(), name
 
 
-def _without_entry(controller):
-    """The same controller as an instance of a subclass with ``inline_entry = False``: the loop
-    then calls the law through its address."""
-    cls = type(controller)
-    plain = dataclasses.make_dataclass(f"Plain{cls.__name__}", [], bases=(cls,), frozen=True, eq=False,
-                                       namespace={"inline_entry": False})
-    return plain(**{f.name: getattr(controller, f.name) for f in dataclasses.fields(controller)})
-
-
 @pytest.mark.parametrize("method", ["rk4", "adaptive"])
 def test_a_law_entry_gives_the_results_of_the_law_called_by_address(method, monkeypatch):
     entries = []
@@ -155,14 +146,32 @@ def test_a_law_entry_gives_the_results_of_the_law_called_by_address(method, monk
                                                    Constant([0.1, 1.0, 0.05]), 5.0)),
              (LINK1, SlotineLi1DoF(LINK1, Sinusoid([0.0], [0.5], [1.0]), 1.0, 1.0, [1.0, 1.0, 1.0]))]
     for plant, controller in cases:
-        plain = _without_entry(controller)
         kwargs = dict(q0=np.zeros(plant.n), t_final=0.3, dt=1e-3, method=method)
         entries.clear()
-        with_entry, by_address = simulate(plant, controller, **kwargs), simulate(plant, plain, **kwargs)
+        with_entry = simulate(plant, controller, **kwargs)
+        # The path of a law that has no entry (one that cannot be imported by name).
+        with monkeypatch.context() as patched:
+            patched.setattr(simulator, "generated_entry", lambda law: None)
+            by_address = simulate(plant, controller, **kwargs)
         assert entries == [generated_entry(type(controller).law), None] and entries[0] is not None
         assert np.abs(with_entry.q[-1] - with_entry.q[0]).max() > 1e-3   # the arm moved
         for name, array in with_entry.groups().items():
             assert array.tobytes() == by_address.groups()[name].tobytes(), (type(controller), name)
+
+
+@pytest.mark.parametrize("name", ["a09_pd_goal", "a14_force_inner_position"])
+def test_task_space_and_interaction_laws_run_through_their_entries_as_by_address(name, monkeypatch):
+    from armlab.scenarios import load_scenario
+
+    scenario = load_scenario(name)
+    assert generated_entry(type(scenario.controller).law) is not None
+    with_entry = scenario.run(t_final=0.3)
+    with monkeypatch.context() as patched:
+        patched.setattr(simulator, "generated_entry", lambda law: None)
+        by_address = scenario.run(t_final=0.3)
+    assert np.abs(with_entry.q[-1] - with_entry.q[0]).max() > 1e-4   # the arm moved
+    for group, array in with_entry.groups().items():
+        assert array.tobytes() == by_address.groups()[group].tobytes(), (name, group)
 
 
 def test_an_entry_runs_only_the_law_it_was_generated_for(monkeypatch):

@@ -70,16 +70,14 @@ names and units, and
 units) — the seed's "scopes".  The simulator adds ``q_des`` etc. only if the controller logs
 them: a controller should log what a user wants to see (references, errors, estimates).
 
-The loop calls a module-level law through its generated *entry* (``armlab.control.entry``): the
-law compiled inlined into the loop's call, which then passes the loop's scratch array and three
-sizes instead of seven arrays and the parameter tuple by value.  That pays where the law is
-small against the call: 1.3–1.5 times faster whole runs for the joint-space laws (A6, A7, A8),
-the same speed (±3 %) for the task-space and interaction laws, whose first run it would make
-1.1–1.4 s longer (its compile).  A class whose law it does not pay for sets
-``inline_entry = False``; the loop then calls the law through its address: same results, bit
-for bit.  ``borrowed`` (``armlab.kernels.boundary``), which the entry applies to the scratch
-and the parameters, tells numba that those arrays need no reference counting (the simulation
-keeps them alive).
+The loop calls every module-level law through its generated *entry* (``armlab.control.entry``):
+the law compiled inlined into the loop's call, which then passes the loop's scratch array and
+three sizes instead of seven arrays and the parameter tuple by value.  That pays where the law
+is small against the call: 1.3–1.5 times faster whole runs for the joint-space laws (A6, A7,
+A8); the task-space and interaction laws run at the same speed (±3 %) and their first run
+compiles 1.1–1.4 s longer (once per machine: the entry is cached on disk).  ``borrowed``
+(``armlab.kernels.boundary``), which the entry applies to the scratch and the parameters,
+tells numba that those arrays need no reference counting (the simulation keeps them alive).
 
 Minimal example (a joint PD, τ = K_P (q_des − q) − K_D q̇, no state)::
 
@@ -191,9 +189,6 @@ def _joint_signal(cls, name: str, joints: tuple, kind: str) -> Signal:
 @dataclass(frozen=True)
 class Controller(abc.ABC):
     """Base of every controller: see the module docstring for the protocol (C0)."""
-
-    # Whether the loop calls ``law`` inlined into a generated entry (see the module docstring).
-    inline_entry = True
 
     @property
     def n(self) -> int:

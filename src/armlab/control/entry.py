@@ -6,9 +6,8 @@ gives the views, in the order of the law's arguments around ``params``.
 
 Every compiled law defined at module level gets an *entry*, the function the loop calls: the
 law inlined into a call that receives the loop's scratch array and three sizes instead of
-seven arrays and the parameter tuple by value (:func:`generated_entry`; a controller class
-whose law it does not pay for says ``inline_entry = False``, ``armlab.control.base``).  The
-entry is generated, always the same three lines::
+seven arrays and the parameter tuple by value (:func:`generated_entry`).  The entry is
+generated, always the same three lines::
 
     @njit(cache=True)
     def entry(cp, law, t, work, n, k, s):

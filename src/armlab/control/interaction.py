@@ -313,8 +313,6 @@ class _ForceBase(Controller):
     singular_warning: float = 0.02
 
     law = force_motion_law
-    # As for the task-space laws (TaskController): A14, A15 ran 1.00–1.03 times as fast inlined.
-    inline_entry = False
 
     def _check(self):
         if not isinstance(self.force, ForceReference):

@@ -73,9 +73,6 @@ class TaskController(Controller):
     kd: object
     task: tuple[int, ...] = (0, 1, 2)
     frame: Literal["base", "desired"] = "base"
-    # A task-space law outweighs its call: inlined into an entry it ran at the same speed
-    # (0.97–1.02 of the call through its address on A9–A13) for 1.1–1.4 s more first compile.
-    inline_entry = False
     euler: str = "zyz"
     angle_reference: object = None
     damping: float = 0.0

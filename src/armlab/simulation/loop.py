@@ -15,8 +15,8 @@ robot's closed form).
 A module-level law is called through its generated entry (``armlab.control.entry``): the law
 compiled inlined into a function that receives the loop's scratch array and three sizes
 instead of seven arrays and the parameter tuple by value (1.3–1.5 times faster A6–A8 runs).
-A law without one (``Controller.inline_entry`` False, or not importable by name) is called
-by :func:`law_trampoline` through its address.
+A law without one (not importable by name) is called by :func:`law_trampoline` through its
+address.
 
 The parameters cross into the shared functions as plain tuples (:func:`plain_params`).  numba's
 disk cache keeps every signature a cached function was compiled for in one index, which it

@@ -201,8 +201,7 @@ class _Setup:
         # A law in plain Python runs in armlab.simulation.python_loop (same step, slower).
         self.python_law = None if is_compiled(law) else law
         self.law = None if self.python_law is not None else _compiled(law, f"{type(controller).__name__}.law")
-        inline = self.python_law is None and getattr(type(controller), "inline_entry", True)
-        self.entry = generated_entry(self.law) if inline else None
+        self.entry = None if self.python_law is not None else generated_entry(self.law)
         self.env_law = _compiled(self.env_law, f"{type(environment).__name__}.law")
         self.rows = self.n_steps // self.log_every + 1
         self.layout = loop.log_layout([s.width for s in self.signals],
