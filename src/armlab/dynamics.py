@@ -23,10 +23,10 @@ written.  What a call needs besides the model and the state is scratch memory, a
     for q, qd, qdd in states:           # a hot Python loop
         tau = inverse_dynamics(robot, q, qd, qdd, data=data)
 
-A call without ``data=`` makes its own (a zeroed workspace of a few hundred numbers, ~1 µs);
-nothing is kept between calls and nothing is written into the robot.  The results are the
-same either way: every kernel writes the scratch it reads first.  A data serves one thread at
-a time.
+A call without ``data=`` uses its thread's own scratch for the robot, made by the engine at
+the robot's first call in that thread and kept in a weak map of the thread, so it goes with
+the robot; nothing is written into the robot.  The results are the same either way: every
+kernel writes the scratch it reads first.  A data serves one thread at a time.
 
 Inputs
 ------
@@ -41,6 +41,8 @@ raises a one-line ``ValueError`` naming the field.
 from __future__ import annotations
 
 import functools
+import threading
+import weakref
 
 import numpy as np
 from numba import njit, types
@@ -61,25 +63,36 @@ from armlab.specialise import DYNAMICS_CHOICES, chosen_module
 NUMERIC = "numeric"
 
 
-class DynamicsData:
-    """The scratch of ``robot``'s dynamics calls: the kernels' workspace (``workspace``, see
-    ``armlab.kernels.plant``) and the compiled entries of each ``dynamics=`` choice met so far
-    (``entries``; what "auto" picks is decided at its first use).
+class _Scratch:
+    """What a call needs besides the model: the kernels' workspace, zero velocities and the
+    compiled entries of each ``dynamics=`` choice met so far (what "auto" picks is decided at
+    its first use).  It holds no robot, so that a thread's own (below) dies with its robot."""
+
+    __slots__ = ("n", "square", "workspace", "rest", "entries")
+
+    def __init__(self, n: int):
+        self.n = n
+        self.square = (n, n)
+        self.workspace = make_data(n)
+        self.rest = np.zeros(n)                   # q̇ = q̈ = 0 (never written)
+        self.entries: dict = {NUMERIC: _ENTRIES}
+
+
+class DynamicsData(_Scratch):
+    """The scratch of ``robot``'s dynamics calls (``workspace``: the kernels' workspace, see
+    ``armlab.kernels.plant``; ``entries``: the compiled entries of the ``dynamics=`` choices
+    met so far).
 
     Reusable by any sequence of calls for that robot, by one thread at a time.
     """
 
-    __slots__ = ("robot", "n", "square", "workspace", "rest", "entries")
+    __slots__ = ("robot",)
 
     def __init__(self, robot: Robot):
         if not isinstance(robot, Robot):
             raise TypeError(f"robot: expected an armlab Robot, got {type(robot).__name__}")
+        super().__init__(robot.n)
         self.robot = robot
-        self.n = robot.n
-        self.square = (robot.n, robot.n)
-        self.workspace = make_data(robot.n)
-        self.rest = np.zeros(robot.n)             # q̇ = q̈ = 0 (never written)
-        self.entries: dict = {NUMERIC: _ENTRIES}
 
     def __reduce__(self):
         # The generated entries belong to this process; another one finds them again.
@@ -89,14 +102,32 @@ class DynamicsData:
         return f"DynamicsData({self.robot.name!r})"
 
 
-def _data_of(robot: Robot, data) -> DynamicsData:
-    """``data`` if it is ``robot``'s, a new one if it is None, else the one-line error."""
+# Each thread's own scratch per robot, for calls without ``data=``: made on a robot's first
+# call in the thread, gone with the robot (a weak map; a robot hashes by identity).
+_THREAD = threading.local()
+
+
+def _data_of(robot: Robot, data) -> _Scratch:
+    """``data`` if it is ``robot``'s, this thread's own scratch for ``robot`` if it is None,
+    else the one-line error."""
     if data is None:
-        return DynamicsData(robot)
+        try:
+            return _THREAD.scratch[robot]
+        except (AttributeError, KeyError, TypeError):
+            return _thread_scratch(robot)
     if type(data) is not DynamicsData or data.robot is not robot:
         owner = repr(data.robot.name) if isinstance(data, DynamicsData) else f"a {type(data).__name__}"
         raise ValueError(f"data: DynamicsData of {owner}, not of robot {getattr(robot, 'name', robot)!r}")
     return data
+
+
+def _thread_scratch(robot: Robot) -> _Scratch:
+    if not isinstance(robot, Robot):
+        raise TypeError(f"robot: expected an armlab Robot, got {type(robot).__name__}")
+    if not hasattr(_THREAD, "scratch"):
+        _THREAD.scratch = weakref.WeakKeyDictionary()
+    scratch = _THREAD.scratch[robot] = _Scratch(robot.n)
+    return scratch
 
 
 # ---------------------------------------------------------------------------- compiled entries
@@ -211,8 +242,8 @@ def _generated_entries(module) -> _GeneratedEntries:
     return _GeneratedEntries(module)
 
 
-def _entries_for(data: DynamicsData, dynamics):
-    """The entries ``dynamics`` picks for ``data.robot``: the numeric ones, or those of the
+def _entries_for(robot: Robot, data: _Scratch, dynamics):
+    """The entries ``dynamics`` picks for ``robot``: the numeric ones, or those of the
     generated module ``armlab.specialise`` chooses ("auto": one on disk already; "closed_form":
     made now if needed); kept in ``data``."""
     if not (isinstance(dynamics, str) and str(dynamics) in DYNAMICS_CHOICES):
@@ -220,7 +251,7 @@ def _entries_for(data: DynamicsData, dynamics):
     dynamics = str(dynamics)
     entries = data.entries.get(dynamics)
     if entries is None:
-        module = chosen_module(data.robot, dynamics)
+        module = chosen_module(robot, dynamics)
         entries = data.entries[dynamics] = _ENTRIES if module is None else _generated_entries(module)
         if module is not None:
             data.entries["auto"] = entries          # "auto" takes a module once there is one
@@ -295,7 +326,7 @@ def inverse_dynamics(robot: Robot, q, qd, qdd, h_e=None, gravity: bool = True,
 
 
 def _inverse_dynamics(robot, q, qd, qdd, h_e, gravity, dynamics, data, tau):
-    entries = _entries_for(data, dynamics)
+    entries = _entries_for(robot, data, dynamics)
     q, qd, qdd, h = _vectors(robot, q=q, qd=qd, qdd=qdd, h_e=_NO_WRENCH if h_e is None else h_e)
     if h_e is None and gravity:
         entries.free_motion(robot.packed, data.workspace, q, qd, qdd, tau)
@@ -317,7 +348,7 @@ def inertia_matrix(robot: Robot, q, dynamics: str = NUMERIC,
                 return B
         except _FALLBACK:
             pass
-    _entries_for(data, dynamics).mass_matrix(robot.packed, data.workspace, _vector(robot, q, "q"), B)
+    _entries_for(robot, data, dynamics).mass_matrix(robot.packed, data.workspace, _vector(robot, q, "q"), B)
     return B
 
 
@@ -376,7 +407,7 @@ def forward_dynamics(robot: Robot, q, qd, tau, h_e=None, dynamics: str = NUMERIC
             pass
     if status == 1:
         h = _NO_WRENCH if h_e is None else h_e
-        status = _entries_for(data, dynamics).forward_dynamics(
+        status = _entries_for(robot, data, dynamics).forward_dynamics(
             robot.packed, data.workspace, *_vectors(robot, q=q, qd=qd, tau=tau, h_e=h), qdd)
     if status == 2:
         raise SingularInertiaError(f"robot {robot.name!r}: inertia matrix B(q) is not positive definite")
