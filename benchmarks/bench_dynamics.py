@@ -3,7 +3,8 @@
 * **Per call from Python, one state**: ``armlab.inverse_dynamics`` / ``inertia_matrix`` /
   ``forward_dynamics`` vs ``pinocchio.rnea`` / ``crba`` / ``aba``; armlab twice, with its
   general kernels (the default) and with the robot's generated module
-  (``dynamics="closed_form"``, ``armlab.specialise``), each checked against Pinocchio first.
+  (``dynamics="closed_form"``, ``armlab.specialise``), each checked against Pinocchio first;
+  each side passes its own data (armlab's ``DynamicsData``, Pinocchio's ``Data``).
 * **Batched**: many states in one call — armlab's kernels inlined into a compiled loop (what
   a simulation does) vs Pinocchio called in a Python loop (its Python API has no batch call).
 * **PRP inverse dynamics inside compiled code**: nanoseconds per evaluation in a compiled loop
@@ -141,17 +142,19 @@ def _states(robot, count, seed=0):
 
 
 def _single_calls(pin, robot, model, data, q, qd, qdd, qp, tau):
-    """Per algorithm: (armlab's general kernels, armlab's generated module, Pinocchio)."""
-    cf = "closed_form"
+    """Per algorithm: (armlab's general kernels, armlab's generated module, Pinocchio); each
+    side passes its own data, as a hot loop does (armlab's ``DynamicsData``, Pinocchio's
+    ``Data``)."""
+    cf, ours = "closed_form", armlab.DynamicsData(robot)
     return {
-        "rnea": (lambda: armlab.inverse_dynamics(robot, q, qd, qdd),
-                 lambda: armlab.inverse_dynamics(robot, q, qd, qdd, dynamics=cf),
+        "rnea": (lambda: armlab.inverse_dynamics(robot, q, qd, qdd, data=ours),
+                 lambda: armlab.inverse_dynamics(robot, q, qd, qdd, dynamics=cf, data=ours),
                  lambda: pin.rnea(model, data, qp, qd, qdd)),
-        "crba": (lambda: armlab.inertia_matrix(robot, q),
-                 lambda: armlab.inertia_matrix(robot, q, dynamics=cf),
+        "crba": (lambda: armlab.inertia_matrix(robot, q, data=ours),
+                 lambda: armlab.inertia_matrix(robot, q, dynamics=cf, data=ours),
                  lambda: pin.crba(model, data, qp)),
-        "aba": (lambda: armlab.forward_dynamics(robot, q, qd, tau),
-                lambda: armlab.forward_dynamics(robot, q, qd, tau, dynamics=cf),
+        "aba": (lambda: armlab.forward_dynamics(robot, q, qd, tau, data=ours),
+                lambda: armlab.forward_dynamics(robot, q, qd, tau, dynamics=cf, data=ours),
                 lambda: pin.aba(model, data, qp, qd, tau)),
     }
 
@@ -456,7 +459,7 @@ def main():
     for name, algorithm, a, c, p, r, rc in per_call_rows():
         print(f"{name:10s} {algorithm:9s} {a:9.2f} {c:12.2f} {p:10.2f} {r:7.2f} {rc:9.2f}")
     print(f"(floor: a Python function allocating a (3, 3) output and calling, through numba's "
-          f"dispatcher, a compiled function that does nothing with the PRP crba wrapper's three "
+          f"dispatcher, a compiled function that does nothing with the PRP crba wrapper's four "
           f"arrays: {call_floor_us():.2f} µs)")
     print("\nBatched, 20000 states per call [ns per state] "
           "(armlab: compiled loop; Pinocchio: Python loop)")

@@ -305,11 +305,10 @@ class Robot:
         object.__setattr__(self, "arrays", _robot_arrays(self))
         object.__setattr__(self, "packed", pack_arrays(self.arrays))
 
-    def __hash__(self):
-        return id(self)
-
-    def __eq__(self, other):
-        return self is other
+    # Identity: a robot is equal only to itself, and hashes as such (object's own slots, which
+    # a dict or weak map of robots calls without entering Python).
+    __hash__ = object.__hash__
+    __eq__ = object.__eq__
 
     def __repr__(self) -> str:
         kinds = "".join("P" if j.kind == "prismatic" else "R" for j in self.joints)
