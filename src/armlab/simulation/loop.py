@@ -575,7 +575,7 @@ def log_rows(core, fn, ts, xs, pp, cparams, eparams, dist, has_env, call_law, li
 def rk4_batch(core, fn, cparams, eparams, targets, bases, work, fset, iset, q_lo, q_hi, x, patch_target,
               patch_offset, patch_column, values, logs, ends):
     """:func:`rk4_core` once per row r of ``values`` (``armlab.sweep.rollout``): the flat inputs
-    ``targets`` = (controller parameters, environment parameters, packed plant, x(0), torque
+    ``targets`` = (controller parameters, environment parameters, the plant's model, x(0), torque
     limits, disturbance) restored from ``bases``, run r's numbers written into them
     (``targets[patch_target[p]][patch_offset[p]] = values[r, patch_column[p]]``; the parameter
     tuples view the first two), the scratch zeroed, then the loop logged into ``logs[r]``;

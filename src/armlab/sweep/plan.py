@@ -2,7 +2,7 @@
 value located in its compiled inputs by probing (``armlab.sweep.rollout``).
 
 The compiled inputs of a run are its controller's and environment's parameter tuples, whose
-float64 arrays are made views of one flat buffer each (:class:`_Flat`), the packed plant, x(0),
+float64 arrays are made views of one flat buffer each (:class:`_Flat`), the plant's model, x(0),
 the torque limits and the disturbance.  A field is probed by building the scenario again with
 the field at two other values of its column: every input that changes must hold exactly that
 value (a copy), in the same places for both, and nothing else of the set-up (its length,

@@ -9,7 +9,7 @@ step and duration — so the scenario is set up once, for the first run, and eve
 differs from it only in the numbers the compiled loop reads.  Where each field's value lands
 is found by *probing*: the scenario is built again with the field at other values of its
 column, and the compiled inputs (the controller's and environment's parameter arrays, the
-packed plant, x(0), the torque limits) that change must hold exactly that value (a copy: a gain,
+plant's model, x(0), the torque limits) that change must hold exactly that value (a copy: a gain,
 a set point, a stiffness, a limit, q0).  A field whose value reaches the inputs through a
 computation (a link mass: the inertias about the joints) or that changes their structure (a
 duration, another robot) is not batched: :class:`RolloutUnsupported` says which and why, and
