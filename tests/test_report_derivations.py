@@ -11,7 +11,8 @@ import sympy as sp
 
 import armlab
 from armlab.symbolic.render import to_mathml
-from armlab.viz import html, report
+from armlab.viz import html
+from armlab.viz import report_derivations as report
 
 RNG = np.random.default_rng(20260507)
 BUDGET = report.DERIVATION_BUDGET[False]

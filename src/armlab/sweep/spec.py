@@ -39,6 +39,10 @@ of run i come from ``numpy.random.SeedSequence(seed, spawn_key=(i,))`` in the or
 ``[random]`` table lists them: they depend on the sweep seed and the run index only, never on
 the executor, the workers or the chunking.  Every problem of the file is one line
 ``<file>: <field>: <what is wrong>`` (:class:`SweepFileError`).
+
+This module reads the file and holds the checked :class:`SweepSpec`; an axis and its draws are
+:mod:`armlab.sweep.axes`, field paths and their writing into a scenario's tables
+:mod:`armlab.sweep.fields`.
 """
 
 from __future__ import annotations
@@ -47,45 +51,23 @@ import copy
 import hashlib
 import json
 import math
-import re
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from scipy.special import ndtr, ndtri
 
 from armlab.errors import ArmlabError, FieldPathError, ScenarioFileError, SweepFileError
 from armlab.model.toml_io import evaluate_expression
+from armlab.sweep.axes import MAX_RUNS, Axis, _count, _grid_axis, _random_axis, draw_value
+from armlab.sweep.fields import (  # noqa: F401 — _segments: imported from here too
+    _PATH,
+    _is_field,
+    _segments,
+    assign,
+)
 
 TOP_KEYS = {"title", "description", "scenario", "seed", "runs", "chunk_size", "set", "grid", "zip", "signals",
             "random", "derived", "plot", "cluster"}
-GRID_KINDS = ("values", "linspace", "geomspace")
-RANDOM_KINDS = ("uniform", "normal", "log_uniform", "lognormal")
-# A truncation's interval must hold at least this probability of its distribution: below it the
-# inverse CDF of the draw has no digits left (and the file has surely a typo).
-MIN_TRUNCATED_MASS = 1e-9
-_NAME = r"[A-Za-z_][A-Za-z0-9_]*"
-_PATH = re.compile(rf"^{_NAME}(\[\d+\])*(\.{_NAME}(\[\d+\])*)*$")
-_SEGMENT = re.compile(rf"({_NAME})((?:\[\d+\])*)")
-MAX_RUNS = 10**9
-MAX_AXIS = 10**6
-"""The longest grid axis (its values are held in memory; a sweep's runs are not)."""
-
-
-@dataclass(frozen=True)
-class Axis:
-    """One swept quantity: a variable (bare name) or a field path, with its grid values or its
-    distribution (``kind`` one of GRID_KINDS / RANDOM_KINDS)."""
-
-    key: str
-    values: tuple = ()
-    kind: str = "values"
-    bounds: tuple[float, float] = (0.0, 0.0)
-    within: tuple[float, float] | None = None   # truncation [low, high] of a normal or lognormal
-
-    @property
-    def is_field(self) -> bool:
-        return "." in self.key or "[" in self.key
 
 
 @dataclass(frozen=True)
@@ -187,228 +169,13 @@ class SweepSpec:
         return values, data
 
 
-def draw_value(rng: np.random.Generator, axis: Axis) -> float:
-    """One draw of ``axis``'s distribution from ``rng``.
-
-    uniform [a, b]: a + (b − a) u;  normal [μ, σ]: μ + σ z;  log_uniform [a, b]: exp of a uniform
-    draw in [ln a, ln b];  lognormal [μ, σ]: exp(μ + σ z), μ and σ those of ln x.  Truncated to
-    ``within`` = [l, h] (normal, lognormal) by the inverse CDF, one uniform u per draw:
-
-        z = Φ⁻¹(Φ(α) + u (Φ(β) − Φ(α))),  α = (l − μ)/σ,  β = (h − μ)/σ      (ln l, ln h for lognormal)
-
-    exact (no rejection), so a truncated draw too depends on the seed and the run index only.
-    """
-    a, b = axis.bounds
-    if axis.kind == "uniform":
-        return float(rng.uniform(a, b))
-    if axis.kind == "log_uniform":
-        return float(np.exp(rng.uniform(np.log(a), np.log(b))))
-    if axis.within is None:
-        z = float(rng.normal(a, b))
-    else:
-        low, high = _standard_interval(axis)
-        z = a + b * float(ndtri(rng.uniform(ndtr(low), ndtr(high))))
-    x = float(np.exp(z)) if axis.kind == "lognormal" else z
-    if axis.within is not None:
-        x = min(max(x, axis.within[0]), axis.within[1])   # rounding must not leave [l, h]
-    return x
-
-
-def _standard_interval(axis: Axis) -> tuple[float, float]:
-    """The truncation ``within`` of a normal or lognormal axis in standard units (α, β)."""
-    (mu, sigma), (low, high) = axis.bounds, axis.within
-    if axis.kind == "lognormal":
-        with np.errstate(divide="ignore"):
-            low, high = float(np.log(low)), float(np.log(high))
-    return (low - mu) / sigma, (high - mu) / sigma
-
-
-def _is_field(key: str) -> bool:
-    return "." in key or "[" in key
-
-
-def _segments(path: str) -> list[str | int]:
-    """``"environment.stiffness[1]"`` → ["environment", "stiffness", 1]."""
-    parts: list[str | int] = []
-    for segment in path.split("."):
-        match = _SEGMENT.fullmatch(segment)
-        parts.append(match.group(1))
-        parts.extend(int(i) for i in re.findall(r"\[(\d+)\]", match.group(2)))
-    return parts
-
-
-def assign(data: dict, path: str, value, copied: set[int] | None = None) -> None:
-    """Write ``value`` at ``path`` into the nested tables ``data``; missing tables are made
-    (``controller.model_link_mass``), the final key is left to the scenario loader to judge.
-
-    With ``copied`` (ids of the containers that are already private copies), every table or
-    array on the way is first replaced by a copy, so that containers ``data`` shares with
-    another table are never written."""
-    parts = _segments(path)
-    node = data
-
-    def private(parent, key, child):
-        if copied is None or id(child) in copied:
-            return child
-        child = dict(child) if isinstance(child, dict) else list(child)
-        parent[key] = child
-        copied.add(id(child))
-        return child
-
-    for depth, part in enumerate(parts[:-1]):
-        following = parts[depth + 1]
-        where = ".".join(str(p) for p in parts[:depth + 1])
-        if isinstance(part, int):
-            if not isinstance(node, list) or part >= len(node):
-                raise FieldPathError(f"{where}: no element {part}")
-            child = node[part]
-        else:
-            if not isinstance(node, dict):
-                raise FieldPathError(f"{where}: is not inside a table")
-            if part not in node:
-                if isinstance(following, int):
-                    raise FieldPathError(f"{where}: the scenario has no such array")
-                node[part] = {}
-            child = node[part]
-        if isinstance(following, int) and not isinstance(child, list):
-            raise FieldPathError(f"{where}: is {child!r} in the scenario, not an array "
-                              "(sweep the whole field)")
-        if isinstance(following, str) and not isinstance(child, dict):
-            raise FieldPathError(f"{where}: is {child!r} in the scenario, not a table")
-        node = private(node, part, child)
-    last = parts[-1]
-    if isinstance(last, int):
-        if last >= len(node):
-            raise FieldPathError(f"{path}: the array has {len(node)} elements")
-        node[last] = value
-    else:
-        node[last] = value
-
-
 # ---------------------------------------------------------------------- reading the file
-
-def _number(value, file, where) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float, str)):
-        raise SweepFileError(file, where, f"expected a number, got {value!r}")
-    if isinstance(value, str):
-        try:
-            return evaluate_expression(value, {})
-        except (ValueError, ArithmeticError, SyntaxError) as error:
-            raise SweepFileError(file, where, f"cannot evaluate {value!r} ({error})") from None
-    return float(value)
-
-
-def _count(value, file, where, low=1, high=MAX_RUNS) -> int:
-    if isinstance(value, bool) or not isinstance(value, int) or not low <= value <= high:
-        raise SweepFileError(file, where, f"expected an integer from {low} to {high}, got {value!r}")
-    return value
-
 
 def _key(key, file, where) -> str:
     if not (_PATH.fullmatch(key)):
         raise SweepFileError(file, where, "expected a variable name or a field path such as "
                                           "controller.kp or environment.stiffness[1]")
     return key
-
-
-def _quoting_hint(spec) -> str:
-    """A dotted path written without quotes is read by TOML as nested tables."""
-    if isinstance(spec, dict) and any(isinstance(v, dict) for v in spec.values()):
-        return ' (write a field path in quotes: "controller.kp" = { … })'
-    return ""
-
-
-def _grid_axis(key, spec, file, where) -> Axis:
-    if not isinstance(spec, dict) or len(spec) != 1 or next(iter(spec)) not in GRID_KINDS:
-        raise SweepFileError(file, where,
-                             f"expected one of {{ {' | '.join(f'{k} = […]' for k in GRID_KINDS)} }}"
-                              + _quoting_hint(spec))
-    kind, raw = next(iter(spec.items()))
-    if not isinstance(raw, list) or not raw:
-        raise SweepFileError(file, f"{where}.{kind}", "expected a non-empty array")
-    if kind == "values":
-        if all(isinstance(v, str) for v in raw) and not all(_evaluates(v) for v in raw):
-            if _is_field(key):
-                return Axis(key, tuple(raw))  # choices of a text field ("online", "none")
-            raise SweepFileError(file, f"{where}.values", "a variable takes numbers")
-        return Axis(key, tuple(_number(v, file, f"{where}.values[{i}]") for i, v in enumerate(raw)))
-    if len(raw) != 3:
-        raise SweepFileError(file, f"{where}.{kind}", "expected [first, last, count]")
-    first, last = (_number(v, file, f"{where}.{kind}") for v in raw[:2])
-    count = _count(raw[2], file, f"{where}.{kind}[2]", high=MAX_AXIS)
-    if not (math.isfinite(first) and math.isfinite(last)):
-        raise SweepFileError(file, f"{where}.{kind}", "first and last must be finite")
-    if kind == "geomspace" and (first <= 0 or last <= 0):
-        raise SweepFileError(file, f"{where}.{kind}", "first and last must be positive")
-    with np.errstate(over="ignore", invalid="ignore"):
-        values = np.linspace(first, last, count) if kind == "linspace" else np.geomspace(first, last, count)
-    if not np.all(np.isfinite(values)):
-        # last - first beyond the float range (±1.8e308): the spacing is not a number.
-        raise SweepFileError(file, f"{where}.{kind}", f"last - first = {last:g} - {first:g} overflows")
-    return Axis(key, tuple(float(v) for v in values))
-
-
-def _evaluates(text: str) -> bool:
-    try:
-        evaluate_expression(text, {})
-    except (ValueError, ArithmeticError, SyntaxError):
-        return False
-    return True
-
-
-def _random_axis(key, spec, file, where) -> Axis:
-    kinds = [k for k in spec if k in RANDOM_KINDS] if isinstance(spec, dict) else []
-    others = [k for k in spec if k not in RANDOM_KINDS and k != "within"] if isinstance(spec, dict) else []
-    if len(kinds) != 1 or others:
-        raise SweepFileError(file, where,
-                             f"expected one of {{ {' | '.join(f'{k} = [a, b]' for k in RANDOM_KINDS)} }}"
-                             " (a normal or lognormal may add within = [low, high])" + _quoting_hint(spec))
-    kind, raw = kinds[0], spec[kinds[0]]
-    if not isinstance(raw, list) or len(raw) != 2:
-        raise SweepFileError(file, f"{where}.{kind}", "expected [a, b]")
-    a, b = (_number(v, file, f"{where}.{kind}") for v in raw)
-    if not (math.isfinite(a) and math.isfinite(b)):
-        raise SweepFileError(file, f"{where}.{kind}", "bounds must be finite")
-    if kind == "uniform" and not a < b:
-        raise SweepFileError(file, f"{where}.{kind}", f"expected a < b, got [{a:g}, {b:g}]")
-    # NumPy draws a + (b − a)·u and μ + σ·z: a width or a spread that overflows gives no number.
-    if kind == "uniform" and not math.isfinite(b - a):
-        raise SweepFileError(file, f"{where}.{kind}", f"b − a overflows ([{a:g}, {b:g}])")
-    if kind == "normal" and not math.isfinite(abs(a) + 40.0 * b):
-        raise SweepFileError(file, f"{where}.{kind}", f"μ and σ of [{a:g}, {b:g}] give draws beyond "
-                                                      "the range of a float")
-    if kind == "normal" and not b > 0:
-        raise SweepFileError(file, f"{where}.{kind}", f"σ must be positive, got {b:g}")
-    if kind == "log_uniform" and not 0 < a < b:
-        raise SweepFileError(file, f"{where}.{kind}", f"expected 0 < a < b, got [{a:g}, {b:g}]")
-    if kind == "lognormal" and not (b > 0 and abs(a) + 40.0 * b < 700.0):
-        raise SweepFileError(file, f"{where}.{kind}", f"expected σ > 0 and exp(μ ± 40σ) within the range of "
-                                                      f"a float, got [{a:g}, {b:g}]")
-    if "within" not in spec:
-        return Axis(key, (), kind, (a, b))
-    return Axis(key, (), kind, (a, b), _truncation(Axis(key, (), kind, (a, b)), spec["within"], file,
-                                                   f"{where}.within"))
-
-
-def _truncation(axis: Axis, raw, file, where) -> tuple[float, float]:
-    """The checked ``within = [low, high]`` of a normal or lognormal ``axis``: low < high (either
-    may be ±inf; a lognormal's low ≥ 0), holding at least :data:`MIN_TRUNCATED_MASS` of it."""
-    if axis.kind not in ("normal", "lognormal"):
-        raise SweepFileError(file, where, f"only a normal or a lognormal is truncated (a {axis.kind}'s "
-                                          "own bounds say where it lies)")
-    if not isinstance(raw, list) or len(raw) != 2:
-        raise SweepFileError(file, where, "expected [low, high]")
-    low, high = (_number(v, file, where) for v in raw)
-    if math.isnan(low) or math.isnan(high) or not low < high:
-        raise SweepFileError(file, where, f"expected low < high, got [{low:g}, {high:g}]")
-    if axis.kind == "lognormal" and low < 0:
-        raise SweepFileError(file, where, f"a lognormal draw is positive: low must be ≥ 0, got {low:g}")
-    alpha, beta = _standard_interval(Axis(axis.key, (), axis.kind, axis.bounds, (low, high)))
-    mass = float(ndtr(beta) - ndtr(alpha))
-    if not mass >= MIN_TRUNCATED_MASS:
-        raise SweepFileError(file, where, f"[{low:g}, {high:g}] holds {mass:.2g} of the distribution's "
-                                          f"probability (at least {MIN_TRUNCATED_MASS:g} needed)")
-    return low, high
 
 
 def _table(data, name, file) -> dict:

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from armlab.metrics import settling_time
-from armlab.viz.layout import ACTUAL, COMMAND, LIMIT, THEORY, Panel, Scope, pretty
+from armlab.viz.scope_model import ACTUAL, COMMAND, LIMIT, THEORY, Panel, Scope, pretty
 from armlab.viz.theory import designed_error, initial_rate, linear_response
 
 

@@ -37,7 +37,7 @@ from armlab.metrics import (
     tail_slice,
     time_at_limit,
 )
-from armlab.viz.layout import pretty
+from armlab.viz.scope_model import pretty
 
 
 @dataclass(frozen=True)

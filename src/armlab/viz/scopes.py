@@ -24,21 +24,19 @@ from matplotlib.transforms import blended_transform_factory
 
 from armlab.errors import ScopeError
 from armlab.files import replacing
-from armlab.metrics import ROUNDING
+from armlab.metrics import FORCE_REFERENCES, ROUNDING  # noqa: F401  (also imported from here by callers)
 from armlab.viz.html import figure_png
-from armlab.viz.layout import (  # noqa: F401  (also imported from here by callers)
+from armlab.viz.layout import main_scopes, scope_layout  # noqa: F401  (also imported from here by callers)
+from armlab.viz.scope_model import (  # noqa: F401  (also imported from here by callers)
     ACTUAL,
     COMMAND,
     DESIRED,
-    FORCE_REFERENCES,
     INSET_BANDS,
     LIMIT,
     Panel,
     Scope,
     Zoom,
-    main_scopes,
     pretty,
-    scope_layout,
 )
 
 MAX_POINTS = 1000
