@@ -16,9 +16,9 @@ from armlab.errors import RolloutUnsupported, SweepFileError
 from armlab.references.joint import Constant
 from armlab.scenarios import ScenarioFileError, load_scenario, scenario_from_table
 from armlab.sweep import bundled_sweep_names, load_sweep, run_one
+from armlab.sweep.fields import _is_field, assign
 from armlab.sweep.metrics import METRIC_NAMES
 from armlab.sweep.rollout import SIGNALS, batch_problem, rollout, sweep_rows
-from armlab.sweep.spec import _is_field, assign
 
 FIRST_RUNS = 50
 # Sweeps whose fields reach the compiled inputs through a computation (link masses: the

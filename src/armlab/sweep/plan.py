@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from armlab.errors import ArmlabError, RolloutUnsupported
-from armlab.sweep.spec import assign
+from armlab.sweep.fields import assign
 
 
 def _leaves(value, floats: list, others: list):
@@ -190,7 +190,7 @@ class BatchPlan:
         from armlab.control.base import Controller, Environment
         from armlab.registry import scenario_types
         from armlab.scenarios.tables import _choose, _fields, build
-        from armlab.sweep.spec import _segments
+        from armlab.sweep.fields import _segments
 
         parts = _segments(self.fields[j])
         bases = {"controller": Controller, "environment": Environment}

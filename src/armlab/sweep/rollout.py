@@ -38,9 +38,9 @@ from pathlib import Path
 import numpy as np
 
 from armlab.errors import FieldPathError, RolloutUnsupported, SweepFileError
+from armlab.sweep.fields import assign
 from armlab.sweep.metrics import METRIC_NAMES, measure_runs
 from armlab.sweep.plan import BatchPlan
-from armlab.sweep.spec import assign
 
 __all__ = ["RolloutUnsupported", "rollout"]
 
@@ -286,7 +286,7 @@ def batch_problem(spec, runs) -> str:
 def _sweep_plan(spec, runs):
     """(plan, parameters of each run, {run position: derived-field problem}, positions of the
     runs the plan holds) of a sweep's ``runs``."""
-    from armlab.sweep.spec import _is_field
+    from armlab.sweep.fields import _is_field
 
     known = _UNBATCHED.get(spec.fingerprint())
     if known is not None:

@@ -59,12 +59,7 @@ import numpy as np
 from armlab.errors import ArmlabError, FieldPathError, ScenarioFileError, SweepFileError
 from armlab.model.toml_io import evaluate_expression
 from armlab.sweep.axes import MAX_RUNS, Axis, _count, _grid_axis, _random_axis, draw_value
-from armlab.sweep.fields import (  # noqa: F401 — _segments: imported from here too
-    _PATH,
-    _is_field,
-    _segments,
-    assign,
-)
+from armlab.sweep.fields import _PATH, _is_field, assign
 
 TOP_KEYS = {"title", "description", "scenario", "seed", "runs", "chunk_size", "set", "grid", "zip", "signals",
             "random", "derived", "plot", "cluster"}
