@@ -14,7 +14,6 @@ allocation):
 
 Kernels (all arrays float64, C-contiguous; (n,) unless stated):
 
-    zero_wrench(model) -> (6,) view (Python)
     rnea_packed(model, data, q, qd, qdd, h_e, tau_out)          τ of (D1) with gravity and h_e
     inverse_dynamics_packed(model, data, q, qd, qdd, tau_out)   τ of (D1) with gravity, h_e = 0
     forward_dynamics_packed(model, data, q, qd, tau, h_e, qdd_out) -> 0 | 1 wrong length |
@@ -41,18 +40,11 @@ from armlab.kernels.energy import kinetic_energy_kernel
 from armlab.kernels.kinematics import end_effector_into, geometric_jacobian_into, joint_frames_into
 from armlab.kernels.linalg import cholesky_solve_inplace
 from armlab.kernels.packed import unpack_robot
-from armlab.model.robot import PACKED_HEAD
 
 
 def make_data(n: int) -> np.ndarray:
     """A robot's data: the zeroed scratch workspace of the kernels below for n joints."""
     return np.zeros(workspace_size(n))
-
-
-def zero_wrench(model: np.ndarray) -> np.ndarray:
-    """The zero wrench (6,) inside ``model`` (a view, never written), for calls without contact."""
-    n = int(model[0])
-    return model[1 + n:PACKED_HEAD + n]
 
 
 @njit(cache=True, inline="always")
@@ -63,7 +55,7 @@ def unpack_model(model):
     model = borrowed(model)
     n = int(model[0])
     joint_type = buffer_view(model, 1, n, np.int64)
-    start = PACKED_HEAD + n
+    start = 1 + n
     return n, unpack_robot(joint_type, buffer_view(model, start, model.shape[0] - start, np.float64))
 
 

@@ -446,15 +446,13 @@ def _robot_arrays(robot: Robot) -> RobotArrays:
 
 # The float fields of RobotArrays in the order ``pack_arrays`` lays them out.
 PACKED_FLOAT_FIELDS = RobotArrays._fields[1:]
-# Entries before the float fields: n, then n joint types, then the zero wrench (6).
-PACKED_HEAD = 7
 
 
 def pack_arrays(m: RobotArrays) -> np.ndarray:
     """The robot's model as one float64 array, the form the compiled kernels take
     (``armlab.kernels.plant`` rebuilds the :class:`RobotArrays` of views from it)::
 
-        [n | joint_type (n, int64 bits) | zero wrench (6) | the float fields, in field order]
+        [n | joint_type (n, int64 bits) | the float fields, in field order]
 
     One array because a compiled function pays for every array it receives (unboxing ~0.1 µs
     each from Python, and compile time for each array of its signature).  The array stays
@@ -462,4 +460,4 @@ def pack_arrays(m: RobotArrays) -> np.ndarray:
     read-only one would be another type, and another compile); nothing writes it."""
     joint_type = np.ascontiguousarray(m.joint_type, dtype=np.int64)
     floats = [np.asarray(getattr(m, name), dtype=float).ravel() for name in PACKED_FLOAT_FIELDS]
-    return np.concatenate([[float(joint_type.shape[0])], joint_type.view(np.float64), np.zeros(6), *floats])
+    return np.concatenate([[float(joint_type.shape[0])], joint_type.view(np.float64), *floats])
