@@ -10,7 +10,7 @@ RUN_STAMP := $(VENV)/.installed-run-$(HASH)
 TEST_STAMP := $(VENV)/.installed-test-$(HASH)
 BENCH_STAMP := $(VENV)/.installed-bench-$(HASH)
 
-.PHONY: demo test bench lint clean docs
+.PHONY: demo test bench lint clean clean-caches docs
 
 # The venv's own pip (>= 21.3) installs this project; upgrading it first cost seconds for nothing.
 # --no-compile: modules are byte-compiled when first imported instead of all at install (most
@@ -51,8 +51,14 @@ bench: $(BENCH_STAMP)
 lint: $(TEST_STAMP)
 	$(BIN)/ruff check src tests benchmarks
 
-clean:
+clean: clean-caches
 	rm -rf $(VENV) build src/*.egg-info .pytest_cache
+
+# numba's disk cache beside the sources: a cached function keeps the code it inlined or called
+# from another file, and numba checks only the function's own file, so after an edit of the
+# kernels the functions of other files that use them must be compiled again.
+clean-caches:
+	find src -name '*.nbi' -delete -o -name '*.nbc' -delete
 
 # The documentation site (Sphinx: docs/*.md and the API reference), warnings as errors.
 docs: $(TEST_STAMP)

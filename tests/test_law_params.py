@@ -18,7 +18,7 @@ from armlab.control.base import Controller, Signal
 from armlab.errors import ProtocolError
 from armlab.references.joint import Sinusoid
 from armlab.scenarios import bundled_scenario_names, load_scenario
-from armlab.simulation import loop, simulate
+from armlab.simulation import loop, simulate, simulator
 from armlab.simulation.environment import FreeSpace, PlanarWall, Spring
 
 PRP = armlab.load_robot("prp")
@@ -141,7 +141,7 @@ def _named_tuples_in(numba_type):
     return []
 
 
-def test_the_shared_loop_functions_never_see_a_named_tuple():
+def test_the_shared_loop_functions_never_see_a_named_tuple(monkeypatch):
     # numba's cache index of a shared function holds every signature it was compiled for; a
     # signature naming this test module's PDParams would break loading it in any process that
     # cannot import this module.
@@ -149,6 +149,9 @@ def test_the_shared_loop_functions_never_see_a_named_tuple():
     simulate(PRP, PD(PRP, q_des, 100.0 * np.ones(3), 20.0 * np.ones(3)), q0=[0, 0, 0], t_final=0.05,
              dt=1e-3, method="adaptive")
     scenario = load_scenario("a11_compliance")
+    scenario.run(t_final=0.01)
+    # A law without an entry (one that cannot be imported by name) goes through law_trampoline.
+    monkeypatch.setattr(simulator, "generated_entry", lambda law: None)
     scenario.run(t_final=0.01)
     shared = (loop.rk4_run, loop.rhs, loop.log_rows, loop.law_trampoline,
               loop.env_trampoline)
