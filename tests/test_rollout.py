@@ -182,3 +182,48 @@ def test_armlab_sweep_says_in_one_line_how_its_runs_run(kind, tmp_path):
         assert "controller.bias_model_link_mass.link4" in lines[0] and "computation" in lines[0]
     table = outcome.to_pandas()
     assert list(table["status"]) == ["ok"] * 3
+
+
+def test_a_plant_and_a_controller_made_in_python_roll_out_as_their_single_runs():
+    from armlab.control.joint_space import JointInverseDynamics
+    from armlab.simulation import simulate
+    from armlab.sweep.metrics import measure
+
+    plant = armlab.load_robot("prp")
+    model = plant.with_link_mass("link4", 0.16)             # the seed's A7 mismatch
+    controller = JointInverseDynamics.from_poles(model, Constant([0.1, 1.0, 0.05]), 5.0)
+    settings = {"q0": np.zeros(3), "t_final": 0.3, "dt": 1e-3}
+    omega = np.array([3.0, 4.0, 5.0, 6.0])
+    q0 = np.array([0.0, 0.1, 0.2, 0.3])
+    kd = np.array([6.0, 8.0, -1.0, 12.0])                      # run 2: K_D not semi-definite
+    table = rollout((plant, controller, settings), {"controller.kp[0][0]": omega ** 2,
+                                                    "controller.kd[0][0]": kd, "simulation.q0[1]": q0},
+                    keep_results=True)
+    assert table["status"] == ["ok", "ok", "invalid", "ok"]
+    assert "kd" in table["diagnosis"][2] and "\n" not in table["diagnosis"][2]
+    for i in (0, 1, 3):
+        kp, kd_i = controller.kp.copy(), controller.kd.copy()
+        kp[0, 0], kd_i[0, 0] = omega[i] ** 2, kd[i]
+        alone = simulate(plant, replace(controller, kp=kp, kd=kd_i),
+                         **{**settings, "q0": np.array([0.0, q0[i], 0.0])})
+        assert table["results"][i].q.tobytes() == alone.q.tobytes()
+        for name, value in measure(alone).items():
+            assert _same(float(table[name][i]), value), (i, name)
+
+
+def test_a_wrong_path_of_the_python_objects_is_one_line():
+    from armlab.control.joint_space import JointInverseDynamics
+
+    plant = armlab.load_robot("prp")
+    controller = JointInverseDynamics.from_poles(plant, Constant([0.1, 1.0, 0.05]), 5.0)
+    for field, said in (("controller.gain", "no field 'gain'"), ("controller.kp[5]", "no such element"),
+                        ("simulation.qd0[1]", "not among the settings"),
+                        ("plant.mass", "controller.<field>")):
+        with pytest.raises(SweepFileError, match=said) as raised:
+            rollout((plant, controller, {"q0": np.zeros(3), "t_final": 0.1, "dt": 1e-3}),
+                    {field: [1.0, 2.0]})
+        assert "\n" not in str(raised.value) and field in str(raised.value)
+    for settings, said in (({"q0": np.zeros(3), "t_final": 0.1}, "settings.dt"),
+                           ({"q0": np.zeros(3), "t_final": 0.1, "dt": 1e-3, "step": 2}, "settings.step")):
+        with pytest.raises(SweepFileError, match=said):
+            rollout((plant, controller, settings), {"controller.kp[0][0]": [1.0, 2.0]})

@@ -75,24 +75,16 @@ def _columns(batch: dict, source) -> tuple[list[str], np.ndarray]:
 
 def rollout(scenario, batch: dict, *, threads: int | None = None, allow_outside: bool = False,
             keep_results: bool = False) -> dict:
-    """Run ``scenario`` (a bundled name or a scenario file) once per row of ``batch`` (see the
-    module docstring) and return the sweep table's columns: ``run``, one column per field,
-    ``status`` ("ok", "diverged", "invalid"), ``diagnosis`` and every metric of
+    """Run ``scenario`` (a bundled name, a scenario file, or ``(plant, controller[, settings])``
+    with settings the keyword arguments of ``armlab.simulate``: ``armlab.sweep.objects``) once
+    per row of ``batch`` (see the module docstring) and return the sweep table's columns:
+    ``run``, one column per field, ``status`` ("ok", "diverged", "invalid"), ``diagnosis`` and every metric of
     ``armlab.sweep.metrics`` (NumPy arrays, or lists for the texts).  ``threads`` (default: the
     number of cores) run the compiled loop side by side.  ``keep_results`` adds ``results``,
     each run's :class:`~armlab.simulation.SimulationResult` (None for an invalid run); without
     it no trajectory outlives its run's metrics."""
-    from armlab.scenarios import read_scenario_toml, scenario_path
-
-    source = scenario_path(scenario) if not hasattr(scenario, "source") else Path(scenario.source)
-    table = read_scenario_toml(source)
-    fields, columns = _columns(batch, source)
-    for field in fields:
-        try:
-            assign(dict(table), field, 0.0, set())
-        except FieldPathError as error:
-            raise SweepFileError(source, field, str(error)) from None
-    plan = BatchPlan(source, table, fields, columns, allow_outside)
+    plan = _plan(scenario, batch, allow_outside)
+    fields, columns = plan.fields, plan.columns
     n_runs = columns.shape[0]
     out = {"run": np.arange(n_runs)}
     for j, field in enumerate(fields):
@@ -115,6 +107,29 @@ def rollout(scenario, batch: dict, *, threads: int | None = None, allow_outside:
     if keep_results:
         out["results"] = results
     return out
+
+
+def _plan(scenario, batch: dict, allow_outside: bool) -> BatchPlan:
+    """The batch's plan: over a scenario file, or over (plant, controller[, settings])."""
+    from armlab.scenarios import read_scenario_toml, scenario_path
+
+    if isinstance(scenario, tuple):
+        from armlab.sweep.objects import ObjectPlan
+
+        if len(scenario) not in (2, 3):
+            raise SweepFileError("rollout", "scenario", "expected (plant, controller[, settings])")
+        plant, controller, settings = (*scenario, {}) if len(scenario) == 2 else scenario
+        fields, columns = _columns(batch, f"({getattr(plant, 'name', 'plant')}, {type(controller).__name__})")
+        return ObjectPlan(plant, controller, settings, fields, columns)
+    source = scenario_path(scenario) if not hasattr(scenario, "source") else Path(scenario.source)
+    table = read_scenario_toml(source)
+    fields, columns = _columns(batch, source)
+    for field in fields:
+        try:
+            assign(dict(table), field, 0.0, set())
+        except FieldPathError as error:
+            raise SweepFileError(source, field, str(error)) from None
+    return BatchPlan(source, table, fields, columns, allow_outside)
 
 
 def _run_part(plan: BatchPlan, runs: list[int], keep_results: bool) -> tuple:
