@@ -8,11 +8,11 @@
   Jacobians without simplification, for the same six joints (slow: counting its operations
   alone takes a minute).
 * The PRP's whole A1–A5 chain as ``armlab derive prp`` prints it.
-* The compiled closed form against the numeric kernels (same signatures): time per call.
 
 Each closed form is checked against the numeric kernels at random states before its figures
-are printed (``check_compact``, ``check_closed_form_kernels``; the test suite runs them on the
-PRP).  Run: ``python benchmarks/bench_symbolic.py`` (or through the bench runner, which calls
+are printed (``check_compact``; the test suite runs it on the PRP).  The compiled closed forms
+of ``armlab.specialise`` are measured by ``bench_dynamics.py`` and ``bench_simulation.py``.
+Run: ``python benchmarks/bench_symbolic.py`` (or through the bench runner, which calls
 :func:`main`).  Timings on a shared machine are noisy; ratios are measured side by side.
 """
 
@@ -31,38 +31,6 @@ def _seconds(f, *args, repeat=1):
     for _ in range(repeat):
         value = f(*args)
     return (time.perf_counter() - start) / repeat, value
-
-
-def _loop(calls):
-    """Compiled loops calling a kernel ``calls`` times, so no interpreter overhead is timed."""
-    from numba import njit
-
-    # q changes every call so the compiler cannot hoist the work out of the loop.
-    @njit
-    def one_vector(kernel, m, ws, q, out):
-        for k in range(calls):
-            q[k % q.shape[0]] += 1e-9
-            kernel(m, ws, q, out)
-
-    @njit
-    def two_vectors(kernel, m, ws, q, qd, out):
-        for k in range(calls):
-            q[k % q.shape[0]] += 1e-9
-            kernel(m, ws, q, qd, out)
-
-    return one_vector, two_vectors
-
-
-def _per_call(kernel, args, calls=20000):
-    one_vector, two_vectors = _LOOPS.setdefault(calls, _loop(calls))
-    loop = one_vector if len(args) == 4 else two_vectors
-    loop(kernel, *args)  # compile
-    start = time.perf_counter()
-    loop(kernel, *args)
-    return (time.perf_counter() - start) / calls
-
-
-_LOOPS: dict = {}
 
 
 def check_compact(robot, sr, result, states=5):
@@ -154,60 +122,12 @@ def prp_chain():
             "prp ops C": count_ops(items["C(q, q̇)"]), "prp ops g": count_ops(items["g(q)"])}
 
 
-def check_closed_form_kernels(robot, closed, states=5):
-    """The compiled closed form's ``mass_matrix_into`` / ``coriolis_matrix_into`` /
-    ``gravity_into`` against the numeric kernels of the same names at random states."""
-    from armlab.kernels import dynamics as numeric
-
-    m, n = robot.arrays, robot.n
-    ws = numeric.make_workspace(n)
-    rng = np.random.default_rng(1)
-    for _ in range(states):
-        q, qd = rng.uniform(-np.pi, np.pi, size=(2, n))
-        for name, args, shape in (("mass_matrix_into", (q,), (n, n)),
-                                  ("coriolis_matrix_into", (q, qd), (n, n)), ("gravity_into", (q,), (n,))):
-            ours, theirs = np.empty(shape), np.empty(shape)
-            getattr(closed, name)(m, ws, *args, ours)
-            getattr(numeric, name)(m, ws, *args, theirs)
-            assert_close(ours, theirs, OTHER_ALGORITHM, f"{robot.name} closed-form {name}")
-
-
-def compiled_vs_kernels(robot, result=None):
-    from armlab.kernels import dynamics as numeric
-    from armlab.symbolic import closed_form_kernels
-
-    start = time.perf_counter()
-    closed = (closed_form_kernels(robot, B=result.B, C=result.C, g=result.g) if result is not None
-              else closed_form_kernels(robot))
-    m, n = robot.arrays, robot.n
-    ws = numeric.make_workspace(n)
-    q, qd = np.full(n, 0.3), np.full(n, 0.2)
-    B, C, g = np.empty((n, n)), np.empty((n, n)), np.empty(n)
-    closed.mass_matrix_into(m, ws, q, B)
-    closed.coriolis_matrix_into(m, ws, q, qd, C)
-    closed.gravity_into(m, ws, q, g)
-    generation = time.perf_counter() - start
-    check_closed_form_kernels(robot, closed)
-    out = {f"{robot.name} code generation + compilation [s]": generation}
-    for name, args, buffer in (("mass_matrix_into", (q,), B), ("coriolis_matrix_into", (q, qd), C),
-                               ("gravity_into", (q,), g)):
-        t_closed = _per_call(getattr(closed, name), (m, ws, *args, buffer))
-        t_numeric = _per_call(getattr(numeric, name), (m, ws, *args, buffer))
-        out[f"{robot.name} {name} closed form [µs]"] = t_closed * 1e6
-        out[f"{robot.name} {name} numeric kernel [µs]"] = t_numeric * 1e6
-    return out
-
-
 def main() -> dict:
-    import armlab
-
     results = {}
     results.update(prp_chain())
-    puma, (robot, compact) = puma_compact()
+    puma, _ = puma_compact()
     results.update(puma)
     results.update(naive_christoffel(6))
-    results.update(compiled_vs_kernels(armlab.load_robot("prp")))
-    results.update(compiled_vs_kernels(robot, compact))
     width = max(map(len, results))
     for key, value in results.items():
         shown = f"{value:.3g}" if isinstance(value, float) else str(value)

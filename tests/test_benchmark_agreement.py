@@ -76,14 +76,6 @@ def test_the_compact_closed_form_agrees_with_the_kernels():
     assert bench_symbolic.check_compact(robot, sr, compact_dynamics(sr), states=3) < 1e-9
 
 
-def test_the_compiled_closed_form_agrees_with_the_kernels():
-    import armlab
-    from armlab.symbolic import closed_form_kernels
-
-    robot = armlab.load_robot("prp_actuated")
-    bench_symbolic.check_closed_form_kernels(robot, closed_form_kernels(robot), states=3)
-
-
 def test_mujoco_runs_the_same_a7_trajectory():
     pytest.importorskip("mujoco")
     assert bench_startup.check_mujoco(t_final=2.0) < agreement.OTHER_ALGORITHM
