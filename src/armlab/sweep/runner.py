@@ -174,7 +174,7 @@ def _dask_client(scheduler, workers, source, from_file: bool):
         try:
             if problem is None:
                 return Client(scheduler, timeout="20s"), None
-        except (ValueError, TypeError, ImportError, NotImplementedError, OSError) as error:
+        except (ValueError, TypeError, ImportError, OSError) as error:
             # Dask reports these as plain exceptions of the address's parser or connector.
             problem = " ".join(str(error).split()) or type(error).__name__
         reason = f"cannot use the Dask scheduler {scheduler!r}: {problem}"
