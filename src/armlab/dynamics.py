@@ -70,8 +70,10 @@ class _Scratch:
 
     __slots__ = ("n", "square", "workspace", "rest", "entries")
 
-    def __init__(self, n: int):
-        self.n = n
+    def __init__(self, robot: Robot):
+        if not isinstance(robot, Robot):
+            raise TypeError(f"robot: expected an armlab Robot, got {type(robot).__name__}")
+        n = self.n = robot.n
         self.square = (n, n)
         self.workspace = make_data(n)
         self.rest = np.zeros(n)                   # q̇ = q̈ = 0 (never written)
@@ -89,9 +91,7 @@ class DynamicsData(_Scratch):
     __slots__ = ("robot",)
 
     def __init__(self, robot: Robot):
-        if not isinstance(robot, Robot):
-            raise TypeError(f"robot: expected an armlab Robot, got {type(robot).__name__}")
-        super().__init__(robot.n)
+        super().__init__(robot)
         self.robot = robot
 
     def __reduce__(self):
@@ -122,11 +122,10 @@ def _data_of(robot: Robot, data) -> _Scratch:
 
 
 def _thread_scratch(robot: Robot) -> _Scratch:
-    if not isinstance(robot, Robot):
-        raise TypeError(f"robot: expected an armlab Robot, got {type(robot).__name__}")
+    scratch = _Scratch(robot)
     if not hasattr(_THREAD, "scratch"):
         _THREAD.scratch = weakref.WeakKeyDictionary()
-    scratch = _THREAD.scratch[robot] = _Scratch(robot.n)
+    _THREAD.scratch[robot] = scratch
     return scratch
 
 

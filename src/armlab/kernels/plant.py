@@ -44,7 +44,7 @@ from armlab.kernels.packed import unpack_robot
 
 def make_data(n: int) -> np.ndarray:
     """A robot's data: the zeroed scratch workspace of the kernels below for n joints."""
-    return np.zeros(workspace_size(n))
+    return np.zeros(workspace_size.py_func(n))
 
 
 @njit(cache=True, inline="always")

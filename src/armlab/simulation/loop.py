@@ -109,7 +109,9 @@ def work_size(n: int, k: int, s: int) -> int:
     """Length of the flat scratch array for n joints, k controller states, s signal columns;
     its last ``workspace_size(n)`` entries are the plant's data."""
     m = 2 * n + k
-    return 7 * n + 2 * k + s + 6 + 9 + 3 + 6 + 5 * m + 18 * n + (45 * n + n * n + 9)
+    # workspace_size's own Python body: the one formula of the plant's data, without a
+    # dispatcher call.
+    return 7 * n + 2 * k + s + 6 + 9 + 3 + 6 + 5 * m + 18 * n + workspace_size.py_func(n)
 
 
 def zdot_slice(n: int, k: int) -> slice:

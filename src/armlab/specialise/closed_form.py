@@ -80,7 +80,6 @@ DYNAMICS_CHOICES = ("auto", "closed_form", "numeric")
 _OUTCOMES: dict = {}
 _LOCK = threading.Lock()
 _GENERATED_LOCK = threading.Lock()
-# Robot identity -> (robot, generator, key) of the last robots seen (see robot_key).
 # Each robot's key, for as long as the robot lives (a robot hashes by identity).
 _KEYS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 _KEYS_LOCK = threading.Lock()
