@@ -264,16 +264,15 @@ AUTO_PROGRAM = """
 import json, pickle, sys
 import numpy as np
 from armlab.control.joint_space import JointInverseDynamics
-from armlab.kernels.plant import inverse_dynamics_packed
 from armlab.references.joint import Constant
 from armlab.simulation import simulate
-from armlab.specialise import inverse_dynamics_kernel
+from armlab.specialise import inverse_dynamics_function, numeric_inverse_dynamics
 with open(sys.argv[1], "rb") as stream:
     robot = pickle.load(stream)
 controller = JointInverseDynamics(robot, Constant(np.zeros(3)), 25.0, 10.0)
 result = simulate(robot, controller, q0=np.zeros(3), t_final=0.01, dt=1e-3)
 print(json.dumps({"plant": result.meta["dynamics"],
-                  "controller_numeric": inverse_dynamics_kernel(robot) is inverse_dynamics_packed,
+                  "controller_numeric": inverse_dynamics_function(robot) is numeric_inverse_dynamics(),
                   "sympy": sorted(m for m in sys.modules if m.split(".")[0] == "sympy")[:3]}))
 """
 

@@ -33,6 +33,8 @@ import types
 from dataclasses import dataclass, field
 
 import numpy as np
+from numba import typeof
+from numba import types as numba_types
 
 from armlab.control.base import Controller, Signal
 from armlab.errors import ProtocolError
@@ -76,9 +78,10 @@ def _required_positional(python) -> int:
 
 
 def check_params(params, what: str = "params") -> None:
-    """The compiled loop takes ``params`` as a tuple (or NamedTuple) of arrays, numbers and
-    such tuples; a list, a dict or an object is refused here in one line (numba's own typing
-    error is forty)."""
+    """The compiled loop takes ``params`` as a tuple (or NamedTuple) of arrays, numbers,
+    compiled functions (numba's ``cfunc``, first-class function values) and such tuples; a
+    list, a dict or another object is refused here in one line (numba's own typing error is
+    forty)."""
     if not isinstance(params, tuple):
         hint = " (write tuple(...) or a NamedTuple)" if isinstance(params, list) else ""
         raise ProtocolError(f"{what}: a {type(params).__name__}, but a law's params must be a tuple "
@@ -90,9 +93,26 @@ def check_params(params, what: str = "params") -> None:
         elif isinstance(value, np.ndarray):
             if value.dtype.hasobject:
                 raise ProtocolError(f"{what}.{name}: an array of Python objects; use a numeric array")
-        elif not isinstance(value, (bool, int, float, np.number, np.bool_)):
-            raise ProtocolError(f"{what}.{name}: a {type(value).__name__}; params hold arrays, numbers "
-                                "and tuples of those")
+        elif not (isinstance(value, (bool, int, float, np.number, np.bool_)) or _compiled_function(value)):
+            raise ProtocolError(f"{what}.{name}: a {type(value).__name__}; params hold arrays, numbers, "
+                                "compiled functions (cfunc) and tuples of those")
+
+
+_FUNCTION_CLASSES: set = set()     # Python classes whose values numba types as functions
+
+
+def _compiled_function(value) -> bool:
+    """Whether numba takes ``value`` as a first-class function (a ``cfunc``), its class
+    remembered (``typeof`` costs ~5 µs of a short run's set-up)."""
+    if type(value) in _FUNCTION_CLASSES:
+        return True
+    try:
+        function = isinstance(typeof(value), numba_types.FunctionType)
+    except ValueError:      # typeof: no numba type
+        return False
+    if function:
+        _FUNCTION_CLASSES.add(type(value))
+    return function
 
 
 _NUMBA_REASONS = ("No implementation of function", "Unknown attribute", "Cannot unify", "Invalid use of",

@@ -11,18 +11,22 @@ from dataclasses import dataclass
 from typing import Literal, NamedTuple
 
 import numpy as np
-from numba import njit, types
+from numba import njit
 
 from armlab.control.base import Controller, ProtocolError, Signal
 from armlab.control.gains import gain_matrix
 from armlab.errors import ControllerSpecError
-from armlab.kernels.boundary import call_none, kernel_address
 from armlab.kernels.dynamics import DynamicsWorkspace, gravity_into, make_workspace
-from armlab.kernels.plant import inverse_dynamics_packed, make_data, rnea_packed
+from armlab.kernels.plant import make_data
 from armlab.model.robot import Robot, RobotArrays
 from armlab.references.joint import JointReference, reference_into
 from armlab.registry import scenario_type
-from armlab.specialise import ClosedFormUnavailable, choice_problem, inverse_dynamics_kernel
+from armlab.specialise import (
+    ClosedFormUnavailable,
+    choice_problem,
+    inverse_dynamics_function,
+    numeric_inverse_dynamics,
+)
 
 COMPENSATION = {"online": 0, "desired": 1, "none": 2}
 
@@ -37,9 +41,6 @@ def _check_reference(reference, n, field="reference"):
 # The laws are inlined into the entry that calls them (no call boundary passing the robot's
 # arrays by value).
 law_kernel = njit(cache=True, inline="always")
-_VEC = types.float64[::1]
-_INVERSE_DYNAMICS_TYPES = (_VEC,) * 6   # one tuple: kernel_address finds it by identity
-_RNEA_TYPES = (_VEC,) * 7
 
 
 class JointPDGravityParams(NamedTuple):
@@ -132,7 +133,10 @@ class JointInverseDynamicsParams(NamedTuple):
     """The ``params`` of :func:`joint_inverse_dynamics_law` (C2); n joints, ``q_des`` to ``y``
     scratch."""
 
-    inverse_dynamics: int           # address of the model's closed-form inverse dynamics, or 0
+    inverse_dynamics: object        # ID(model, data, q, q̇, q̈, τ_out) of the model: its closed
+                                    # form or its RNEA (``dynamics``), a compiled function
+                                    # (``armlab.kernels.plant.INVERSE_DYNAMICS``)
+    rnea: object                    # the RNEA's ID, for n̂ of a bias model (the same kind)
     model: np.ndarray               # the model's ``Robot.packed`` (never written)
     model_data: np.ndarray          # its data: the workspace of its kernels (scratch)
     reference: np.ndarray           # a writeable copy of ``JointReference.data``
@@ -143,8 +147,6 @@ class JointInverseDynamicsParams(NamedTuple):
     qd_des: np.ndarray              # (n,) q̇_des(t) [m/s | rad/s]
     qdd_des: np.ndarray             # (n,) q̈_des(t) [m/s² | rad/s²]
     y: np.ndarray                   # (n,) outer-loop acceleration y [m/s² | rad/s²]
-    rnea: int                       # address of ``rnea_packed`` (numeric model or a bias model), or 0
-    zero_wrench: np.ndarray         # (6,) zeros: h_e of the RNEA calls
     bias_model: np.ndarray          # ``Robot.packed`` of n̂'s model when it is not B̂'s (else empty)
     bias_data: np.ndarray           # its data (scratch; empty without a bias model)
     zero: np.ndarray                # (n,) zeros: q̈ of the bias terms
@@ -155,7 +157,7 @@ class JointInverseDynamicsParams(NamedTuple):
 def joint_inverse_dynamics_law(t, q, qd, z, h_e, params, tau_out, zdot_out, signals_out):
     """(C2): τ = B̂(q) y + n̂(q, q̇), y = q̈_des + K_D (q̇_des − q̇) + K_P (q_des − q);
     ``params`` a :class:`JointInverseDynamicsParams`."""
-    inverse_dynamics, model, ref = params.inverse_dynamics, params.model, params.reference
+    model, data, ref = params.model, params.model_data, params.reference
     kp, kd, diagonal, y = params.kp, params.kd, params.diagonal, params.y
     q_des, qd_des, qdd_des = params.q_des, params.qd_des, params.qdd_des
     n = q.shape[0]
@@ -169,21 +171,15 @@ def joint_inverse_dynamics_law(t, q, qd, z, h_e, params, tau_out, zdot_out, sign
             for j in range(n):
                 acc += kd[i, j] * (qd_des[j] - qd[j]) + kp[i, j] * (q_des[j] - q[j])
         y[i] = acc
-    # B̂ y + n̂ is exactly the model's inverse dynamics at q̈ = y (no B): the model's closed
-    # form or its RNEA, whichever ``dynamics`` chose (armlab.specialise).  The RNEA is the
-    # plant's own ``rnea_packed`` with a zero wrench (skipped at run time): one compiled RNEA
-    # serves plant and law, rather than a second one without the wrench (~4 s cold compile).
-    if inverse_dynamics == 0:
-        call_none(params.rnea, (model, params.model_data, q, qd, y, params.zero_wrench, tau_out))
-    else:
-        call_none(inverse_dynamics, (model, params.model_data, q, qd, y, tau_out))
+    # B̂ y + n̂ is exactly the model's inverse dynamics at q̈ = y (no B is formed).
+    params.inverse_dynamics(model, data, q, qd, y, tau_out)
     if params.bias_model.size:
         # n̂ from its own model (the seed's A7 mismatch): τ += n̂_bias(q, q̇) − n̂_model(q, q̇).
-        bias, bias_model = params.bias, params.bias_model
-        call_none(params.rnea, (bias_model, params.bias_data, q, qd, params.zero, params.zero_wrench, bias))
+        bias, zero = params.bias, params.zero
+        params.rnea(params.bias_model, params.bias_data, q, qd, zero, bias)
         for i in range(n):
             tau_out[i] += bias[i]
-        call_none(params.rnea, (model, params.model_data, q, qd, params.zero, params.zero_wrench, bias))
+        params.rnea(model, data, q, qd, zero, bias)
         for i in range(n):
             tau_out[i] -= bias[i]
     for i in range(n):
@@ -251,20 +247,19 @@ class JointInverseDynamics(Controller):
     def params(self):
         n = self.n
         try:
-            kernel = inverse_dynamics_kernel(self.model, self.dynamics, "dynamics")
+            inverse_dynamics = inverse_dynamics_function(self.model, self.dynamics, "dynamics")
         except ClosedFormUnavailable as error:
             raise ControllerSpecError(f"dynamics: {error}") from None
         diagonal = not (np.any(self.kp - np.diag(np.diag(self.kp)))
                         or np.any(self.kd - np.diag(np.diag(self.kd))))
-        numeric = kernel is inverse_dynamics_packed
         bias = self.bias_model is not None
         return JointInverseDynamicsParams(
-            inverse_dynamics=0 if numeric else kernel_address(kernel, _INVERSE_DYNAMICS_TYPES, types.none),
+            # Without a bias model ``rnea`` is never called: the same function stands in.
+            inverse_dynamics=inverse_dynamics, rnea=numeric_inverse_dynamics() if bias else inverse_dynamics,
             model=self.model.packed, model_data=make_data(n), reference=np.array(self.reference.data),
             kp=self.kp, kd=self.kd, diagonal=np.array([diagonal], dtype=np.int64),
             q_des=np.zeros(n), qd_des=np.zeros(n), qdd_des=np.zeros(n), y=np.zeros(n),
-            rnea=kernel_address(rnea_packed, _RNEA_TYPES, types.none) if numeric or bias else 0,
-            zero_wrench=np.zeros(6), bias_model=self.bias_model.packed if bias else np.zeros(0),
+            bias_model=self.bias_model.packed if bias else np.zeros(0),
             bias_data=make_data(n) if bias else np.zeros(0),
             zero=np.zeros(n), bias=np.zeros(n))
 

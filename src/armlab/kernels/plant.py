@@ -21,12 +21,13 @@ Kernels (all arrays float64, C-contiguous; (n,) unless stated):
     kinetic_energy_packed(model, data, q, qd) -> T [J] (NaN for a wrong length)
     measure_packed(model, q, qd, work, R_0e, p_0e, v_e)   pose (3, 3), (3,) and twist (6,) of Σ_e
                                                           in Σ_0; work (18 n,) scratch
+
 """
 
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from numba import njit, types
 
 from armlab.kernels.boundary import borrowed, buffer_view
 from armlab.kernels.dynamics import (
@@ -74,10 +75,7 @@ def rnea_packed(model, data, q, qd, qdd, h_e, tau_out):
     The forward dynamics below calls it rather than inlining it: its inlined RNEA with a
     wrench cost ~10 s of compile time with empty caches, the call and the CRBA ~3 s more
     than this kernel, and the call costs a few nanoseconds of a numeric PRP step (within
-    noise).  The computed-torque law calls it too, by address with a zero wrench (skipped at
-    run time), so a run compiles one RNEA for plant and controller; the public inverse
-    dynamics keeps its own inlined RNEA without the wrench (calling this kernel from there
-    instead cost ~7 % of a numeric PRP run: one more call per stage)."""
+    noise)."""
     n, m, ws = unpack_plant(model, data)
     rnea_inline(m, ws, q, qd, qdd, 1.0, h_e, tau_out)
 
@@ -88,6 +86,11 @@ def inverse_dynamics_packed(model, data, q, qd, qdd, tau_out):
     (compiled callers pass n-vectors)."""
     n, m, ws = unpack_plant(model, data)
     rnea_inline(m, ws, q, qd, qdd, 1.0, None, tau_out)
+
+
+# (model, data, q, qd, qdd, tau_out) -> None: a model's inverse dynamics as a law calls it
+# (``armlab.specialise.inverse_dynamics_function``).
+INVERSE_DYNAMICS = types.void(*(types.float64[::1],) * 6)
 
 
 @kernel

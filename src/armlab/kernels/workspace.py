@@ -25,6 +25,7 @@ class DynamicsWorkspace(NamedTuple):
     inertia about J_i's origin, first moment, mass.  ``L`` (n, n): Cholesky factor.
     ``v1``, ``v2``, ``t1``, ``t2``, ``zero`` (n,): vectors (``zero`` stays 0).
     ``R0`` (3, 3): rotation of the last joint frame in Σ_0.
+    ``no_wrench`` (6,): stays 0, the h_e of an RNEA without a wrench.
     """
 
     R: np.ndarray
@@ -44,12 +45,13 @@ class DynamicsWorkspace(NamedTuple):
     t2: np.ndarray
     zero: np.ndarray
     R0: np.ndarray
+    no_wrench: np.ndarray
 
 
 @njit(cache=True)
 def workspace_size(n):
     """Number of float64 entries of a workspace for n joints (see :func:`workspace_from_buffer`)."""
-    return 45 * n + n * n + 9
+    return 45 * n + n * n + 15
 
 
 # Inlined into its caller so that the views are reference-counted as the caller is: a
@@ -59,7 +61,8 @@ def workspace_size(n):
 @njit(cache=True, inline="always")
 def workspace_from_buffer(buf, n):
     """A :class:`DynamicsWorkspace` whose arrays are views into ``buf`` (workspace_size(n),);
-    one allocation serves every scratch array.  ``buf`` must be zero where ``zero`` lies."""
+    one allocation serves every scratch array.  ``buf`` must be zero where ``zero`` and
+    ``no_wrench`` lie."""
     d = np.float64
     o = 0
     R = buffer_view(buf, o, (n, 3, 3), d)
@@ -95,7 +98,9 @@ def workspace_from_buffer(buf, n):
     zero = buffer_view(buf, o, n, d)
     o += n
     R0 = buffer_view(buf, o, (3, 3), d)
-    return DynamicsWorkspace(R, p, w, wd, a, f, mu, Ic, hc, mc, L, v1, v2, t1, t2, zero, R0)
+    o += 9
+    no_wrench = buffer_view(buf, o, 6, d)
+    return DynamicsWorkspace(R, p, w, wd, a, f, mu, Ic, hc, mc, L, v1, v2, t1, t2, zero, R0, no_wrench)
 
 
 @njit(cache=True)

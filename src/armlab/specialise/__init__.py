@@ -4,7 +4,7 @@ A robot's generated module (the numeric kernels partially evaluated for its numb
 :mod:`armlab.specialise.traced`) is
 made on request, cached on disk, and checked against the compiled kernels of
 ``armlab.kernels`` before use (:mod:`armlab.specialise.closed_form`).  The simulator and the
-controllers ask :func:`plant_kernels` and :func:`inverse_dynamics_kernel` for the kernels a
+controllers ask :func:`plant_kernels` and :func:`inverse_dynamics_function` for the kernels a
 ``dynamics=`` choice selects; the public functions of ``armlab.dynamics`` ask
 :func:`chosen_module`.
 """
@@ -19,11 +19,12 @@ from armlab.specialise.closed_form import (
     closed_form_module,
     closed_form_status,
     generated_module,
-    inverse_dynamics_kernel,
+    inverse_dynamics_function,
+    numeric_inverse_dynamics,
     plant_kernels,
     robot_key,
 )
 
 __all__ = ["DYNAMICS_CHOICES", "ClosedFormUnavailable", "cache_dir", "cached_module",
            "choice_problem", "chosen_module", "closed_form_module", "closed_form_status", "generated_module",
-           "inverse_dynamics_kernel", "plant_kernels", "robot_key"]
+           "inverse_dynamics_function", "numeric_inverse_dynamics", "plant_kernels", "robot_key"]

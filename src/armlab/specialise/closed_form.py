@@ -60,14 +60,17 @@ import weakref
 from pathlib import Path
 
 import numpy as np
+from numba import NumbaExperimentalFeatureWarning, cfunc
 
 from armlab.errors import CacheWarning, ClosedFormUnavailable
 from armlab.files import check_writable_folder, write_text
 from armlab.kernels.dynamics import make_workspace, rnea_into
 from armlab.kernels.plant import (
+    INVERSE_DYNAMICS,
     forward_dynamics_packed,
-    inverse_dynamics_packed,
     kinetic_energy_packed,
+    rnea_packed,
+    unpack_plant,
 )
 from armlab.model.robot import Robot
 
@@ -80,6 +83,8 @@ DYNAMICS_CHOICES = ("auto", "closed_form", "numeric")
 _OUTCOMES: dict = {}
 _LOCK = threading.Lock()
 _GENERATED_LOCK = threading.Lock()
+# A closed-form module's inverse dynamics as a law's compiled function, by module name.
+_FUNCTIONS: dict = {}
 # Each robot's key, for as long as the robot lives (a robot hashes by identity).
 _KEYS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 _KEYS_LOCK = threading.Lock()
@@ -412,7 +417,42 @@ def plant_kernels(robot: Robot, dynamics: str = "auto", field: str = "dynamics")
     return "closed_form", module.forward_dynamics, module.kinetic_energy
 
 
-def inverse_dynamics_kernel(robot: Robot, dynamics: str = "auto", field: str = "dynamics"):
-    """A compiled ``inverse_dynamics(model, data, q, qd, qdd, tau_out)`` for ``robot``."""
+# numba warns, at every typing of a compiled function's value, that first-class functions are
+# experimental: armlab's use (a law's params hold one, the law calls it) is what the suite runs
+# on every numba of the supported range, so the warning would tell a user nothing to act on.
+warnings.filterwarnings("ignore", "First-class function type feature is experimental",
+                        NumbaExperimentalFeatureWarning)
+
+
+def _numeric_inverse_dynamics(model, data, q, qd, qdd, tau_out):
+    n, m, ws = unpack_plant(model, data)
+    rnea_packed(model, data, q, qd, qdd, ws.no_wrench, tau_out)
+
+
+@functools.cache
+def numeric_inverse_dynamics():
+    """The RNEA's τ of (D1) with h_e = 0 as a compiled function of ``INVERSE_DYNAMICS``
+    (compiled, or loaded from numba's cache, on first use).  It calls the plant's own
+    ``rnea_packed`` with the workspace's zero wrench (skipped at run time), so a numeric run
+    compiles one RNEA for plant and controller: the wrench-free ``inverse_dynamics_packed``
+    would be a second (~4 s with empty caches)."""
+    return cfunc(INVERSE_DYNAMICS, cache=True)(_numeric_inverse_dynamics)
+
+
+def inverse_dynamics_function(robot: Robot, dynamics: str = "auto", field: str = "dynamics"):
+    """``robot``'s inverse dynamics as the compiled function a law holds: numba's ``cfunc`` of
+    the signature ``armlab.kernels.plant.INVERSE_DYNAMICS``, its closed form's or the RNEA's.
+
+    A law calls it by its field's name (``params.inverse_dynamics(model, data, q, qd, y, tau)``)
+    and compiles once for every robot and both kinds: all share one numba type, where a
+    compiled dispatcher in the params would make the law compile per robot and never load from
+    numba's disk cache (measured: a cache miss on every run of a fresh process)."""
     module = chosen_module(robot, dynamics, field)
-    return inverse_dynamics_packed if module is None else module.inverse_dynamics
+    if module is None:
+        return numeric_inverse_dynamics()
+    with _GENERATED_LOCK:
+        function = _FUNCTIONS.get(module.__name__)
+        if function is None:
+            function = cfunc(INVERSE_DYNAMICS, cache=True)(module.inverse_dynamics_function)
+            _FUNCTIONS[module.__name__] = function
+    return function
