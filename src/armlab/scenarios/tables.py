@@ -301,17 +301,29 @@ def build(base: type, table, file, where: str, plant: str | None = None, plant_t
     ``plant_tip`` its tip), the default of a required ``Robot`` field (a controller's ``model``);
     ``allow_outside`` as for :func:`robot`.
     """
+    declaration = _declaration(base, table, file, where)
+    return construct(declaration, arguments(declaration, table, file, where, plant, plant_tip, allow_outside),
+                     file, where)
+
+
+def _declaration(base: type, table, file, where: str) -> ScenarioType:
     if not isinstance(table, dict):
         raise ScenarioFileError(file, where, "expected a table")
-    declaration = _choose(base, table, file, where)
+    return _choose(base, table, file, where)
+
+
+def arguments(declaration: ScenarioType, table: dict, file, where: str, plant: str | None = None,
+              plant_tip: str | None = None, allow_outside: bool = False, skip: str | None = None) -> dict:
+    """{field: value} of the constructor of ``declaration`` that ``table`` describes (as
+    :func:`build` reads them), without the field ``skip`` (which a caller reads itself)."""
     fields = _fields(declaration.cls)
-    arguments = _split_poses(declaration, table, file, where) if declaration.poses else {}
+    result = _split_poses(declaration, table, file, where) if declaration.poses else {}
     # Keys read with another key rather than as a field of their own.
     companions = {f"{name}{suffix}" for name, (hint, _) in fields.items() if hint is Robot
                   for suffix in ("_link_mass", "_tip")}
     companions |= set(declaration.poses) | ({"euler"} if declaration.poses else set())
     for key, value in table.items():
-        if key == "type" or key in companions - set(fields):
+        if key == "type" or key == skip or key in companions - set(fields):
             continue
         if key not in fields:
             known = sorted(set(fields) | companions)
@@ -319,17 +331,22 @@ def build(base: type, table, file, where: str, plant: str | None = None, plant_t
                                                             f"(use {', '.join(known)})")
         hint, _ = fields[key]
         if hint is not Robot:
-            arguments[key] = read(hint, value, file, f"{where}.{key}", plant, plant_tip)
+            result[key] = read(hint, value, file, f"{where}.{key}", plant, plant_tip)
     for name, (hint, required) in fields.items():
         # An optional robot is built when named or when only its masses are overridden (it is
         # then the plant with those masses).
         given = name in table or f"{name}_link_mass" in table
         if hint is Robot and (given or (required and plant is not None)):
             tip = table.get(f"{name}_tip", None if name in table else plant_tip)
-            arguments[name] = robot(table.get(name, plant), table.get(f"{name}_link_mass", {}),
-                                    file, f"{where}.{name}", tip, allow_outside)
-        if required and name not in arguments:
+            result[name] = robot(table.get(name, plant), table.get(f"{name}_link_mass", {}),
+                                 file, f"{where}.{name}", tip, allow_outside)
+        if required and name not in result and name != skip:
             raise ScenarioFileError(file, f"{where}.{name}", "missing")
+    return result
+
+
+def construct(declaration: ScenarioType, arguments: dict, file, where: str):
+    """``declaration``'s class built from ``arguments``: its own checks, in one line."""
     try:
         built = declaration.cls(**arguments)
         getattr(built, "data", None)  # joint references check their numbers when first asked

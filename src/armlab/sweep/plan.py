@@ -188,8 +188,9 @@ class BatchPlan:
         """A function building, with field ``j`` at a value, the innermost object of the scenario
         that holds it (a controller, its reference, an environment), or None."""
         from armlab.control.base import Controller, Environment
+        from armlab.model.robot import Robot
         from armlab.registry import scenario_types
-        from armlab.scenarios.tables import _choose, _fields, build
+        from armlab.scenarios.tables import _choose, _fields, arguments, build, construct, read
         from armlab.sweep.fields import _segments
 
         parts = _segments(self.fields[j])
@@ -214,7 +215,28 @@ class BatchPlan:
             return build(base, table, self.source, where, plant=plant, plant_tip=tip,
                          allow_outside=self.allow_outside)
 
-        return holder
+        key = parts[depth] if depth < len(parts) else None
+        declaration = _choose(base, node, self.source, where)
+        hint = _fields(declaration.cls).get(key, (None,))[0]
+        if key not in node or hint is None or hint is Robot or declaration.poses:
+            return holder
+        # The holder's other fields read once (a value is checked with them at the first valid
+        # run's, as the full build above would read them), its own field read per value: the
+        # same messages at a tenth of the cost (a reference's expressions and the robot are not
+        # read again; 2000 distinct gains of the A7 sweep took 0.2 s of its 0.6 s).
+        known: dict = {}
+
+        def fast_holder(value):
+            if not known:
+                known.update(arguments(declaration, node, self.source, where, plant, tip, self.allow_outside,
+                                       skip=key))
+            entry = {key: node[key]}
+            assign(entry, rest, value, {id(entry)})
+            given = dict(known)
+            given[key] = read(hint, entry[key], self.source, f"{where}.{key}", plant, tip)
+            return construct(declaration, given, self.source, where)
+
+        return fast_holder
 
     def _first_valid(self):
         """Index of the first run whose values all pass (each run's problem kept in ``invalid``)."""
