@@ -58,7 +58,7 @@ clean: clean-caches
 # from another file, and numba checks only the function's own file, so after an edit of the
 # kernels the functions of other files that use them must be compiled again.
 clean-caches:
-	find src -name '*.nbi' -delete -o -name '*.nbc' -delete
+	find src tests benchmarks -name '*.nbi' -delete -o -name '*.nbc' -delete
 
 # The documentation site (Sphinx: docs/*.md and the API reference), warnings as errors.
 docs: $(TEST_STAMP)

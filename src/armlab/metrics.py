@@ -51,33 +51,16 @@ class Response(NamedTuple):
 
 
 def response(t: np.ndarray, e: np.ndarray, band: float = BAND, fraction: float = WINDOW) -> Response:
-    """The :class:`Response` of every column of ``e`` ((R,) or (R, k)) sampled at ``t``.
+    """The :class:`Response` of every column of ``e`` ((R,) or (R, k)) sampled at ``t``, by the
+    compiled kernel every caller shares (``armlab.kernels.response``: a sweep measures its
+    runs with it too, so each gets the bits it gets alone)."""
+    from armlab.kernels.response import response_into
 
-    The components are reduced together, each along a contiguous row of a transposed copy:
-    the same sums, in the same order, as one component's own (R,) array, at a fraction of the
-    cost of one pass per component (a sweep measures every run)."""
     e = np.asarray(e, dtype=float)
-    rows = np.ascontiguousarray(e.reshape(e.shape[0], -1).T)            # (k, R)
-    window = rows[:, tail_slice(t, fraction)]
-    final = np.mean(window, axis=1)
-    rms = np.sqrt(np.mean((window - final[:, None]) ** 2, axis=1))
-    peak_to_peak = np.max(window, axis=1) - np.min(window, axis=1)
-    offset = rows - final[:, None]
-    deviation = np.abs(offset)
-    largest = np.max(deviation, axis=1)
-    peak = np.nanmax(deviation, axis=1)
-    # Settling: the sample after the last one outside the band (t_0 if none, NaN if the last).
-    outside = deviation > band * peak[:, None]
-    last = rows.shape[1] - 1 - np.argmax(outside[:, ::-1], axis=1)
-    settled = np.where(last == rows.shape[1] - 1, np.nan, t[np.minimum(last + 1, t.size - 1)])
-    settled = np.where((peak == 0.0) | ~outside.any(axis=1), float(t[0]), settled)
-    # Overshoot: past e_∞ on the side opposite to the start (a NaN excursion counts as none).
-    start = rows[:, 0] - final
-    step = (start != 0.0) & ~(np.abs(start) < largest * (1 - 1e-9))
-    beyond = np.max(-np.sign(start)[:, None] * offset, axis=1)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        over = 100.0 * np.where(beyond > 0.0, beyond, 0.0) / np.abs(start)
-    return Response(final, rms, peak_to_peak, largest, settled, np.where(step, over, np.nan))
+    runs = np.ascontiguousarray(e.reshape(1, e.shape[0], -1))             # (1, R, k)
+    out = np.empty((1, runs.shape[2], 6))
+    response_into(np.ascontiguousarray(t, dtype=float), runs, tail_slice(t, fraction).start, band, out)
+    return Response(*(out[0, :, i].copy() for i in range(6)))
 
 
 def _component(e) -> np.ndarray:

@@ -41,7 +41,18 @@ import math
 
 import numpy as np
 
-from armlab.metrics import FORCE_REFERENCES, response, tail_slice
+from armlab.kernels.response import (
+    DEVIATION,
+    FINAL,
+    OVERSHOOT,
+    PEAK_TO_PEAK,
+    SETTLING,
+    error_size_into,
+    peak_into,
+    response_into,
+    saturated_into,
+)
+from armlab.metrics import BAND, FORCE_REFERENCES, tail_slice
 
 PARAMETER_BAND = 0.05
 FLOOR = 1e-9
@@ -90,45 +101,50 @@ def _tracking(signals) -> tuple[np.ndarray | None, np.ndarray | None]:
     return None, None
 
 
-def _error_metrics(t, e, e_p) -> dict:
-    """The error metrics of N runs at once: e (N, R, k), e_p (N, R, 3) or None; {name: (N,)}.
+def _error_metrics(t, e, positional: bool) -> dict:
+    """The error metrics of N runs at once: e (N, R, k) C-contiguous, ``positional`` whether its
+    first three components are a position error; {name: (N,)}.
 
-    Every reduction runs along one run's own samples in the order a single run's would (the
-    components of all runs side by side in ``response``, sums over a run's contiguous rows,
-    norms one run at a time), so a run measured with others gets the bits it gets alone."""
+    Each run's numbers come from the compiled kernels of ``armlab.kernels.response``, which
+    reduce one run at a time, so a run measured with others gets the bits it gets alone."""
     runs, _, k = e.shape
-    tail = tail_slice(t)
-    r = response(t, np.moveaxis(e, 0, 1).reshape(e.shape[1], runs * k))
-    deviation, settling = r.deviation.reshape(runs, k), r.settling_time.reshape(runs, k)
-    overshoot = r.overshoot.reshape(runs, k)
+    out = np.empty((runs, k, 6))
+    response_into(t, e, tail_slice(t).start, BAND, out)
+    final, deviation = out[:, :, FINAL], out[:, :, DEVIATION]
+    settling, overshoot = out[:, :, SETTLING], out[:, :, OVERSHOOT]
+    sizes = np.empty((runs, 2))
+    error_size_into(e, sizes)
     moving = ~(deviation <= FLOOR)            # else constant up to round-off: settled at t₀
     settle = np.where(moving, settling, float(t[0]))
     counted = moving & ~np.isnan(overshoot)
     largest_overshoot = np.where(counted, overshoot, -np.inf).max(axis=1)
     position = np.full(runs, math.nan)
-    if e_p is not None:
-        means = e_p[:, tail].mean(axis=1)
-        position = np.array([float(np.linalg.norm(row)) for row in means])
+    if positional:
+        # e_p's mean over the window is the final value of e's first three components.
+        position = np.array([float(np.linalg.norm(row)) for row in final[:, :3]])
     return {
         "settling_time": np.where(np.isnan(settle).any(axis=1), math.nan, settle.max(axis=1)),
         "overshoot": np.where(counted.any(axis=1), largest_overshoot, math.nan),
-        "steady_state_error": np.abs(r.final).reshape(runs, k).max(axis=1),
-        "oscillation": r.peak_to_peak.reshape(runs, k).max(axis=1),
-        "rms_error": np.sqrt(np.mean(np.sum(e ** 2, axis=2), axis=1)),
-        "max_error": np.max(np.abs(e).reshape(runs, -1), axis=1),
+        "steady_state_error": np.abs(final).max(axis=1),
+        "oscillation": out[:, :, PEAK_TO_PEAK].max(axis=1),
+        "rms_error": sizes[:, 0],
+        "max_error": sizes[:, 1],
         "position_error": position,
     }
 
 
 def _torque_metrics(t, tau, limits, command) -> dict:
-    """tau (N, R, n) applied torques, limits (N, n) (inf: none), command (N, R, n) or None."""
+    """tau (N, R, n) applied torques, limits (N, n) (inf: none), command (N, R, n) or None
+    (C-contiguous)."""
     step = float(t[1] - t[0]) if t.size > 1 else 0.0
-    at_limit = np.abs(tau) >= limits[:, None, :] * (1.0 - 1e-9)
     runs = tau.shape[0]
-    return {"peak_torque": np.max(np.abs(tau).reshape(runs, -1), axis=1),
-            "peak_command": (np.full(runs, math.nan) if command is None
-                             else np.max(np.abs(command).reshape(runs, -1), axis=1)),
-            "saturation_time": step * np.count_nonzero(at_limit.any(axis=2), axis=1)}
+    peak, peak_command, saturated = np.empty(runs), np.full(runs, math.nan), np.empty(runs, dtype=np.int64)
+    tau = np.ascontiguousarray(tau, dtype=float)
+    peak_into(tau, peak)
+    if command is not None:
+        peak_into(np.ascontiguousarray(command, dtype=float), peak_command)
+    saturated_into(tau, np.ascontiguousarray(limits, dtype=float), saturated)
+    return {"peak_torque": peak, "peak_command": peak_command, "saturation_time": step * saturated}
 
 
 def _force_metrics(h, desired, tail) -> dict:
@@ -204,7 +220,8 @@ def measure_alike(t, tau, limits, signals, z, ok: bool, truth=None) -> dict[str,
         return values
     e, e_p = _tracking(signals)
     if e is not None and e.shape[2] > 0:
-        values.update(_error_metrics(t, e, None if e_p is None else np.ascontiguousarray(e_p)))
+        values.update(_error_metrics(np.ascontiguousarray(t, dtype=float),
+                                     np.ascontiguousarray(e, dtype=float), e_p is not None))
     reference = next((name for name in FORCE_REFERENCES if name in signals), None)
     values.update(_force_metrics(signals.get("h_e"), None if reference is None else signals[reference],
                                  tail_slice(t)))
