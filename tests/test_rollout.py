@@ -21,10 +21,9 @@ from armlab.sweep.metrics import METRIC_NAMES
 from armlab.sweep.rollout import SIGNALS, batch_problem, rollout, sweep_rows
 
 FIRST_RUNS = 50
-# Sweeps whose fields reach the compiled inputs through a computation (link masses: the
-# inertias about the joints), which the rollout refuses by name.
-NOT_BATCHED = {"a7_link_masses_montecarlo": "controller.model_link_mass",
-               "a7_mismatch_montecarlo": "controller.bias_model_link_mass.link4"}
+# Bundled sweeps the rollout refuses, by the field it names (none: the link-mass Monte Carlo
+# sweeps reach their controllers through a computation, which the batch builds run by run).
+NOT_BATCHED: dict[str, str] = {}
 
 
 def _batch(spec, runs):
@@ -116,6 +115,48 @@ def test_what_cannot_be_batched_is_named():
         rollout("a6_pd_none", {"controller.kp": [1, 2], "controller.kd": [1, 2, 3]})
 
 
+def test_link_masses_of_the_controllers_model_roll_out_as_their_single_runs(monkeypatch):
+    """A controller's model mass reaches its parameters through a computation (the inertias
+    about the joints, the RNEA's model): each run's controller is built from its file and its
+    whole buffer written. A run whose model has a closed form (the nominal PRP's) holds another
+    compiled function, so it runs on its own, with the same row."""
+    from armlab.specialise import closed_form_module
+
+    closed_form_module(armlab.load_robot("prp"))                # the nominal model's, on disk
+    sweep_rollout = __import__("sys").modules["armlab.sweep.rollout"]
+    alone = []
+    run_alone = sweep_rollout._run_alone
+    monkeypatch.setattr(sweep_rollout, "_run_alone",
+                        lambda plan, i, keep: alone.append(i) or run_alone(plan, i, keep))
+    link4 = np.array([0.15, 0.17, 0.2, 0.23, -0.1, 0.25])      # run 2 nominal; run 4 a negative mass
+    link2 = np.array([0.45, 0.5, 0.5, 0.55, 0.5, 0.6])
+    batch = {"controller.model_link_mass.link4": link4, "controller.model_link_mass.link2": link2,
+             "controller.kd": np.full(6, 12.0), "simulation.t_final": 0.3}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        out = rollout("a7_id_via_points", batch, threads=2, keep_results=True)
+    assert alone == [2]
+    assert out["status"][4] == "invalid" and "model_link_mass.link4" in out["diagnosis"][4]
+    table = armlab.scenarios.read_scenario_toml(armlab.scenarios.scenario_path("a7_id_via_points"))
+    assign(table, "controller.model_link_mass.link4", -0.1)
+    with pytest.raises(ScenarioFileError) as single:
+        scenario_from_table(table, armlab.scenarios.scenario_path("a7_id_via_points"))
+    assert out["diagnosis"][4] == " ".join(str(single.value).split())
+    scenario = load_scenario("a7_id_via_points")
+    for i in (0, 1, 2, 3, 5):
+        model = scenario.plant.with_link_mass("link4", link4[i]).with_link_mass("link2", link2[i])
+        direct = armlab.simulate(scenario.plant, replace(scenario.controller, model=model, kd=12.0),
+                                 **{**scenario.simulation, "t_final": 0.3})
+        assert out["status"][i] == "ok"
+        np.testing.assert_array_equal(direct.q, out["results"][i].q)
+        np.testing.assert_array_equal(direct.tau, out["results"][i].tau)
+
+
+def test_a_plant_mass_is_named_as_what_cannot_be_batched():
+    with pytest.raises(RolloutUnsupported, match="plant_link_mass.link4.*computation"):
+        rollout("a7_id_via_points", {"plant_link_mass.link4": [0.15, 0.2, 0.25], "simulation.t_final": 0.1})
+
+
 @pytest.mark.parametrize("name", bundled_sweep_names())
 def test_a_sweep_chunk_runs_as_a_batch_with_the_rows_of_its_runs(name):
     spec = load_sweep(name)
@@ -158,7 +199,7 @@ runs = 3
 [random]
 mismatch = { uniform = [-0.3, 0.3] }
 [derived]
-"controller.bias_model_link_mass.link4" = "0.2*(1 + mismatch)"
+"plant_link_mass.link4" = "0.2*(1 + mismatch)"
 """,
 }
 
@@ -179,7 +220,7 @@ def test_armlab_sweep_says_in_one_line_how_its_runs_run(kind, tmp_path):
         assert "the runs of each chunk run as one batch" in lines[0]
     else:
         assert "each run set up on its own" in lines[0]
-        assert "controller.bias_model_link_mass.link4" in lines[0] and "computation" in lines[0]
+        assert "plant_link_mass.link4" in lines[0] and "computation" in lines[0]
     table = outcome.to_pandas()
     assert list(table["status"]) == ["ok"] * 3
 

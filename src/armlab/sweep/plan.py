@@ -7,7 +7,10 @@ the torque limits and the disturbance.  A field is probed by building the scenar
 the field at two other values of its column: every input that changes must hold exactly that
 value (a copy), in the same places for both, and nothing else of the set-up (its length,
 logging, signals, integer parameters) may change; else :class:`RolloutUnsupported` names the
-field and why.  Each value of a run is checked once per distinct value by building the object
+field and why.  The exception: a controller field that changes the controller's parameters
+alone, through a computation (a mass of its model), is *computed*: each run's controller is
+built from the file (:meth:`BatchPlan.controller_numbers`) and its whole buffer written.
+Each value of a run is checked once per distinct value by building the object
 of the scenario file that holds it (:meth:`BatchPlan.problem`).
 """
 
@@ -102,6 +105,7 @@ class BatchPlan:
         self.invalid: dict[int, str] = {}
         self._checked: dict[tuple[int, float], str] = {}
         self._holders: dict = {}
+        self.computed: set[int] = set()     # fields that reach the controller through a computation
         first = self._first_valid()
         self.base_values = columns[first] if first is not None else None
         if first is None:
@@ -261,6 +265,8 @@ class BatchPlan:
         for j, value in enumerate(self.columns[i].tolist()):
             if not math.isfinite(value):
                 return f"{self.source}: {self.fields[j]}: {value!r} is not a finite number"
+            if j in self.computed:
+                continue                # checked by building the run's controller (controller_numbers)
             problem = self._check(j, value)
             if problem:
                 return problem
@@ -294,8 +300,12 @@ class BatchPlan:
                 offsets = np.flatnonzero(probe != base[name])
                 if offsets.size and not (np.all(probe[offsets] == value)
                                          and np.all(base[name][offsets] == self.base_values[j])):
-                    raise RolloutUnsupported(self.source, field, "its value reaches the compiled inputs "
-                                             "through a computation (not as a copy): runs one by one")
+                    if self._computed_root(j, inputs) is None:
+                        raise RolloutUnsupported(self.source, field, "its value reaches the compiled "
+                                                 "inputs through a computation (not as a copy) outside "
+                                                 "the controller's parameters: runs one by one")
+                    self.computed.add(j)
+                    return []
                 if offsets.size:
                     found.append((name, offsets))
             where = [(name, offsets.tolist()) for name, offsets in found]
@@ -303,6 +313,49 @@ class BatchPlan:
                 raise RolloutUnsupported(self.source, field, "lands in different places for different values")
             patch = found
         return patch
+
+    # ------------------------------------------------------------------ computed fields
+    def _computed_root(self, j: int, inputs) -> str | None:
+        """"controller" if field ``j`` (probed to ``inputs``) is read by the controller of the
+        scenario file alone and changes nothing but its parameters, else None."""
+        from armlab.sweep.fields import _segments
+
+        if _segments(self.fields[j])[0] != "controller" or not isinstance(self.table.get("controller"), dict):
+            return None
+        base = self._flat_inputs(self.inputs)
+        changed = {name for name, probe in self._flat_inputs(inputs).items() if np.any(probe != base[name])}
+        return "controller" if changed == {"controller"} else None
+
+    def controller_numbers(self, i: int) -> tuple[np.ndarray | None, str]:
+        """(the controller's parameter buffer of run ``i``, '') built from its scenario file with
+        all of the run's controller fields, as the scenario loader builds it; (None, why) if the
+        build refuses a value; (None, '') if the parameters differ in structure from the first
+        valid run's (another compiled law or model: the run runs on its own)."""
+        from armlab.control.base import Controller
+        from armlab.scenarios.tables import build
+
+        data = {"controller": dict(self.table["controller"])}
+        copied = {id(data), id(data["controller"])}
+        for j, field in enumerate(self.fields):
+            if field.startswith("controller."):
+                assign(data, field, float(self.columns[i, j]), copied)
+        problem, built = "", None
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                built = build(Controller, data["controller"], self.source, "controller",
+                              plant=self.table.get("plant"), plant_tip=self.table.get("plant_tip"),
+                              allow_outside=self.allow_outside)
+                params = built.params()
+        except (ArmlabError, ValueError, ArithmeticError) as error:
+            problem = " ".join(str(error).split())
+        if problem:
+            return None, problem
+        flat, first = _Flat(params), self.inputs["controller"]
+        if flat.shapes != first.shapes or [_structure(v) for v in flat.others] != [
+                _structure(v) for v in first.others]:
+            return None, ""
+        return flat.base, ""
 
     def _same_structure(self, setup, inputs) -> str:
         first = self.setup

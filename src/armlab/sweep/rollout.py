@@ -10,8 +10,11 @@ differs from it only in the numbers the compiled loop reads.  Where each field's
 is found by *probing*: the scenario is built again with the field at other values of its
 column, and the compiled inputs (the controller's and environment's parameter arrays, the
 plant's model, x(0), the torque limits) that change must hold exactly that value (a copy: a gain,
-a set point, a stiffness, a limit, q0).  A field whose value reaches the inputs through a
-computation (a link mass: the inertias about the joints) or that changes their structure (a
+a set point, a stiffness, a limit, q0).  A controller field whose value reaches its
+parameters through a computation (a mass of its model: the inertias about the joints) has each
+run's controller built from the file and its whole parameter buffer written (a run whose
+controller differs in structure, another compiled model, is simulated on its own).  Any other
+field computed into the inputs (the plant's masses) or that changes their structure (a
 duration, another robot) is not batched: :class:`RolloutUnsupported` says which and why, and
 ``armlab sweep`` runs such a sweep run by run.
 
@@ -154,6 +157,11 @@ def _run_part(plan: BatchPlan, runs: list[int], keep_results: bool) -> tuple:
     targets, base = tuple(buffers[name] for name in names), tuple(bases[name] for name in names)
     patch = [(names.index(name), offset, j) for j, field in enumerate(plan.patches)
              for name, offsets in field for offset in offsets.tolist()]
+    if plan.computed:
+        # Each run's whole controller buffer, built from its file, as extra columns of the
+        # values; written first, so the copied fields land over it (with the same numbers).
+        width = plan.columns.shape[1]
+        patch = [(names.index("controller"), k, width + k) for k in range(bases["controller"].size)] + patch
     patch_target, patch_offset, patch_column = (np.array([p[k] for p in patch], dtype=np.int64)
                                                 for k in range(3))
     x = np.empty_like(buffers["x0"])
@@ -167,11 +175,23 @@ def _run_part(plan: BatchPlan, runs: list[int], keep_results: bool) -> tuple:
     values_of = {name: [] for name in METRIC_NAMES}
     for first in range(0, len(runs), chunk_runs):
         # Checked here, on the worker threads: this Python overlaps the other threads' loops.
-        problems = [plan.problem(i) for i in runs[first:first + chunk_runs]]
-        chunk = np.asarray([i for i, why in zip(runs[first:first + chunk_runs], problems, strict=True)
-                            if not why],
+        part = runs[first:first + chunk_runs]
+        problems = [plan.problem(i) for i in part]
+        alone, numbers = {}, []             # runs whose controller differs in structure; their buffers
+        if plan.computed:
+            for k, i in enumerate(part):
+                if not problems[k]:
+                    vector, problems[k] = plan.controller_numbers(i)
+                    if vector is None and not problems[k]:
+                        alone[i] = _run_alone(plan, i, keep_results)
+                    elif vector is not None:
+                        numbers.append(vector)
+        chunk = np.asarray([i for i, why in zip(part, problems, strict=True) if not why and i not in alone],
                            dtype=np.int64)
-        values = np.ascontiguousarray(plan.columns[chunk])
+        values = plan.columns[chunk]
+        if plan.computed:
+            values = np.hstack([values, np.reshape(numbers, (len(chunk), bases["controller"].size))])
+        values = np.ascontiguousarray(values)
         loop.rk4_batch(core, fn, cparams, eparams, targets, base, work, fset, iset, setup.q_lo, setup.q_hi,
                        x, patch_target, patch_offset, patch_column, values, logs, ends)
         limits = np.repeat(bases["lim"][None, :], len(chunk), axis=0)
@@ -179,19 +199,45 @@ def _run_part(plan: BatchPlan, runs: list[int], keep_results: bool) -> tuple:
             limits[:, offset] = values[:, j]
         ran = _measured(plan, logs[:len(chunk)], limits, [tuple(row) for row in ends[:len(chunk)].tolist()],
                         keep_results)
-        valid = np.array([not why for why in problems], dtype=bool)
+        batched = np.array([not why and i not in alone for i, why in zip(part, problems, strict=True)],
+                           dtype=bool)
         place = iter(range(len(chunk)))
-        for why in problems:
-            r = None if why else next(place)
-            statuses.append("invalid" if why else ran[0][r])
-            diagnoses.append(why or ran[1][r])
-            kept.append(None if why else ran[3][r])
+        columns = {name: np.full(len(part), math.nan) for name in METRIC_NAMES}
+        for k, (i, why) in enumerate(zip(part, problems, strict=True)):
+            if why:
+                statuses.append("invalid")
+                diagnoses.append(why)
+                kept.append(None)
+            elif i in alone:
+                state, reason, measured, result = alone[i]
+                statuses.append(state)
+                diagnoses.append(reason)
+                kept.append(result)
+                for name in METRIC_NAMES:
+                    columns[name][k] = measured[name]
+            else:
+                r = next(place)
+                statuses.append(ran[0][r])
+                diagnoses.append(ran[1][r])
+                kept.append(ran[3][r])
         for name in METRIC_NAMES:
-            column = np.full(len(problems), math.nan)
-            column[valid] = ran[2][name]
-            values_of[name].append(column)
+            columns[name][batched] = ran[2][name]
+            values_of[name].append(columns[name])
     metrics = {name: np.concatenate(parts) if parts else np.zeros(0) for name, parts in values_of.items()}
     return statuses, diagnoses, metrics, kept
+
+
+def _run_alone(plan, i: int, keep_results: bool) -> tuple:
+    """(status, diagnosis, {metric: value}, result or None) of run ``i`` simulated on its own,
+    as its scenario file alone would run it (a controller whose parameters differ in structure
+    from the batch's: another compiled model)."""
+    from armlab.simulation import SimulationDiverged
+
+    try:
+        result = plan.scenario_of(plan.columns[i]).run()
+    except SimulationDiverged as error:
+        result = error.result
+    return result.status, result.diagnosis, measure_runs([result])[0], result if keep_results else None
 
 
 def _measured(plan, logs, limits, ends, keep_results: bool):
