@@ -19,6 +19,9 @@ each run, every run measured and written to Parquet as ``armlab sweep`` does.
   of what a sweep built on it would reach.  Its trajectories are first checked against
   armlab's (:func:`check_mujoco`, to 1e-9).
 
+* **A7**: :data:`A7_RUNS` runs of the A7 via-point tracking shortened to 1 s, ω_n drawn per run
+  (:data:`A7_SWEEP`), on one thread, a thread per core and Dask (target ≥ 0.9 per core).
+
 Per core: rate / (cores × one-thread rate); target ≥ 0.9 on every executor.  The driver's
 memory: its resident set sampled while the sweep runs, at 10 % and at 100 % of the runs;
 target: flat (it grows by less than :data:`FLAT_MB` MB while nine tenths of the runs pass).
@@ -26,7 +29,7 @@ Before anything is timed, :func:`check_agreement` checks that every executor wri
 table, bit for bit (also run by the test suite on a few runs).
 
 Run: ``python benchmarks/bench_sweep.py`` or ``make bench``.  ``ARMLAB_BENCH_SWEEP_RUNS``
-changes :data:`RUNS`.
+changes :data:`RUNS`, ``ARMLAB_BENCH_A7_RUNS`` :data:`A7_RUNS`.
 """
 
 from __future__ import annotations
@@ -56,13 +59,28 @@ chunk_size = {chunk}
 "controller.reference.value[1]" = {{ uniform = [0, 1.5707963267948966] }}
 """
 MUJOCO_BATCH = 5000
+A7_RUNS = int(os.environ.get("ARMLAB_BENCH_A7_RUNS", 1000))
+A7_SWEEP = """
+title = "benchmark: A7 via-point tracking of 1 s, random natural frequency"
+scenario = "a7_id_via_points"
+seed = 7
+runs = {runs}
+chunk_size = {chunk}
+[set]
+"simulation.t_final" = 1.0
+[random]
+omega_n = {{ uniform = [4, 12] }}
+[derived]
+"controller.kp" = "omega_n**2"
+"controller.kd" = "2*omega_n"
+"""
 
 
-def spec_of(folder, runs, chunk=200, t_final=T_FINAL, name="bench"):
+def spec_of(folder, runs, chunk=200, t_final=T_FINAL, name="bench", text=SWEEP):
     from armlab.sweep import load_sweep_file
 
     path = Path(folder) / f"{name}.toml"
-    path.write_text(SWEEP.format(runs=runs, chunk=chunk, t_final=t_final), encoding="utf-8")
+    path.write_text(text.format(runs=runs, chunk=chunk, t_final=t_final), encoding="utf-8")
     return load_sweep_file(path)
 
 
@@ -78,7 +96,7 @@ def _resident_mb() -> float:
 
 
 class Memory:
-    """The driver's resident set [MB] sampled every 50 ms with the fraction of chunk files
+    """The driver's resident set [MB] sampled every 10 ms with the fraction of chunk files
     written: ``at(0.1)`` is the first sample once a tenth of the chunks were written."""
 
     def __init__(self, runs_folder: Path, chunks: int):
@@ -88,7 +106,7 @@ class Memory:
         self.thread = threading.Thread(target=self._sample, daemon=True)
 
     def _sample(self):
-        while not self.stop.wait(0.05):
+        while not self.stop.wait(0.01):
             done = len(list(self.folder.glob("part-*.parquet"))) if self.folder.is_dir() else 0
             self.samples.append((done / self.chunks, _resident_mb()))
             if done and self.first is None:
@@ -254,6 +272,25 @@ def timed(spec, folder, **executor):
     return seconds, steady, memory
 
 
+def a7_case(folder, cores: int) -> list[tuple[str, float, float]]:
+    """[(executor, wall seconds, steady runs/s)] of :data:`A7_RUNS` runs of the 1 s A7 sweep
+    (:data:`A7_SWEEP`: ω_n drawn per run, K_P = ω_n², K_D = 2ω_n) on one thread, on a thread
+    per core and (installed) on Dask with a worker process per core."""
+    from armlab.sweep import sweep
+
+    sweep(spec_of(folder, 2 * cores, chunk=1, name="a7-warm", text=A7_SWEEP), Path(folder) / "a7-warm",
+          threads=cores)
+    spec = spec_of(folder, A7_RUNS, chunk=max(1, A7_RUNS // 40), name="a7", text=A7_SWEEP)
+    executors = [("1 thread", dict(threads=1)), (f"{cores} threads", dict(threads=cores))]
+    if dask_available():
+        executors.append((f"Dask, {cores} processes", dict(workers=cores)))
+    rows = []
+    for name, executor in executors:
+        seconds, steady, _ = timed(spec, folder, **executor)
+        rows.append((name, seconds, steady))
+    return rows
+
+
 def main():
     from armlab.sweep import sweep
 
@@ -276,6 +313,7 @@ def main():
             seconds, steady, memory = timed(spec, folder, **executor)
             rows.append((name, RUNS, seconds, RUNS / seconds, steady, memory))
         rollout_rows = time_rollout(spec, cores)
+        a7_rows = a7_case(folder, cores)
         mujoco_rows = []
         if mujoco_available():
             print(f"MuJoCo agreement: max |Δq| {check_mujoco():.2g}")
@@ -316,6 +354,16 @@ def main():
               f"{'met' if per_core >= TARGET else 'NOT met'}); driver memory "
               f"{growth:+.0f} MB from 10 % to 100 % of the runs "
               f"({'flat' if growth < FLAT_MB else 'NOT flat'})")
+    print(f"\nSweep: {A7_RUNS} runs of the A7 via-point tracking shortened to 1 s, random ω_n, metrics "
+          "and Parquet (steady: after the first chunk)")
+    a7_one = a7_rows[0][2]
+    for name, seconds, steady in a7_rows:
+        workers = 1 if name == "1 thread" else cores
+        per_core = steady / workers / a7_one
+        target = "" if workers == 1 else (f"; target ≥ {TARGET}: "
+                                          f"{'met' if per_core >= TARGET else 'NOT met'}")
+        print(f"  {name:<22}{seconds:>6.2f} s wall, steady {steady:>6.0f} runs/s, "
+              f"{per_core:.2f} per core{target}")
 
 
 if __name__ == "__main__":
