@@ -5,6 +5,7 @@ makes its own run invalid with the single-run message; fields it cannot batch ar
 from __future__ import annotations
 
 import math
+import sys
 import warnings
 from dataclasses import replace
 
@@ -129,7 +130,7 @@ def test_link_masses_of_the_controllers_model_roll_out_as_their_single_runs(monk
     run_alone = sweep_rollout._run_alone
     monkeypatch.setattr(sweep_rollout, "_run_alone",
                         lambda plan, i, keep: alone.append(i) or run_alone(plan, i, keep))
-    link4 = np.array([0.15, 0.17, 0.2, 0.23, -0.1, 0.25])      # run 2 nominal; run 4 a negative mass
+    link4 = np.array([0.15, 0.17, 0.2, 0.23, -0.1, 0.25])      # run 4: a negative mass
     link2 = np.array([0.45, 0.5, 0.5, 0.55, 0.5, 0.6])
     batch = {"controller.model_link_mass.link4": link4, "controller.model_link_mass.link2": link2,
              "controller.kd": np.full(6, 12.0), "simulation.t_final": 0.3}
@@ -159,12 +160,17 @@ def test_a_plant_mass_is_named_as_what_cannot_be_batched():
 
 
 @pytest.mark.parametrize("name", bundled_sweep_names())
-def test_a_sweep_chunk_runs_as_a_batch_with_the_rows_of_its_runs(name):
+def test_a_sweep_chunk_runs_as_a_batch_with_the_rows_of_its_runs(name, monkeypatch):
     spec = load_sweep(name)
     runs = range(min(FIRST_RUNS, spec.n_runs))
+    half = len(runs) // 2
+    # Two chunks: the second shares the first's plan (or makes its own where a field took one
+    # value in all of the first's runs).
+    monkeypatch.setattr(sys.modules["armlab.sweep.rollout"], "_PLANS", {})
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        batched = sweep_rows(spec, runs)
+        first = sweep_rows(spec, runs[:half])
+        batched = None if first is None else first + sweep_rows(spec, runs[half:])
         if name in NOT_BATCHED:
             assert batched is None
             assert NOT_BATCHED[name] in batch_problem(spec, runs)
@@ -183,6 +189,29 @@ def test_a_sweep_chunk_runs_as_a_batch_with_the_rows_of_its_runs(name):
                 assert _same(value, mine[key]), (name, theirs["run"], key)
             else:
                 assert mine[key] == value, (name, theirs["run"], key)
+
+
+def test_a_later_chunk_shares_the_first_chunks_plan_unless_a_field_was_not_located(tmp_path, monkeypatch):
+    """Chunk 0 holds K_P = 20 alone, so where K_P lands is not found there: chunk 1 (K_P = 40)
+    gets its own plan; chunk 2 shares chunk 1's. Every row is its run_one row."""
+    from armlab.sweep import load_sweep_file
+
+    sweep_rollout = sys.modules["armlab.sweep.rollout"]
+    monkeypatch.setattr(sweep_rollout, "_PLANS", {})
+    path = tmp_path / "gains.toml"
+    path.write_text('scenario = "a6_pd_none"\nchunk_size = 2\n[set]\n"simulation.t_final" = 0.05\n'
+                    '[zip]\n"controller.kp[0]" = { values = [20, 20, 40, 30, 50, 60] }\n'
+                    '"controller.kd[0]" = { values = [5, 6, 7, 8, 9, 10] }\n')
+    spec = load_sweep_file(path)
+    plans = []
+    for chunk in range(3):
+        rows = sweep_rows(spec, spec.chunk_runs(chunk))
+        plans.append(sweep_rollout._PLANS[spec.fingerprint()])
+        for row in rows:
+            single = run_one(spec, row["run"])
+            assert row["status"] == single["status"] == "ok"
+            assert all(_same(single[m], row[m]) for m in METRIC_NAMES), row["run"]
+    assert plans[1] is not plans[0] and plans[2] is plans[1]
 
 
 SMALL_SWEEPS = {

@@ -16,6 +16,7 @@ of the scenario file that holds it (:meth:`BatchPlan.problem`).
 
 from __future__ import annotations
 
+import copy
 import inspect
 import itertools
 import math
@@ -106,6 +107,7 @@ class BatchPlan:
         self._checked: dict[tuple[int, float], str] = {}
         self._holders: dict = {}
         self.computed: set[int] = set()     # fields that reach the controller through a computation
+        self.unprobed: set[int] = set()     # fields of one value in every valid run: not located
         first = self._first_valid()
         self.base_values = columns[first] if first is not None else None
         if first is None:
@@ -129,6 +131,19 @@ class BatchPlan:
         if self.truth is not None and any(name == "plant" for patch in self.patches for name, _ in patch):
             raise RolloutUnsupported(source, "plant", "the adaptive metrics compare with the plant's own "
                                      "parameters: a batch of plants runs one by one")
+
+    def for_columns(self, columns: np.ndarray) -> BatchPlan | None:
+        """This plan over other runs of the same fields (another chunk of a sweep): the set-up,
+        the located fields and the checks made so far are shared, so a chunk costs its runs
+        alone (the A7 1 s sweep's chunk of 16 runs: 15 ms, a third of it set-up and probing).
+        None if a field this plan could not locate (one value in all its runs) takes another
+        value there: that chunk needs its own plan."""
+        if self.base_values is None or any(np.any(columns[:, j] != self.base_values[j])
+                                           for j in self.unprobed):
+            return None
+        plan = copy.copy(self)
+        plan.columns, plan.invalid = columns, {}
+        return plan
 
     # ------------------------------------------------------------------ building and checks
     def scenario_of(self, values):
@@ -285,6 +300,7 @@ class BatchPlan:
         valid = (v for v in others if not self._check(j, v))      # checked lazily: two are enough
         others = list(itertools.islice(valid, 2))
         if not others:
+            self.unprobed.add(j)
             return []                                   # one value in every valid run
         base = self._flat_inputs(self.inputs)
         patch = None

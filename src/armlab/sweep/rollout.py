@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import math
 import os
+import threading
 import warnings
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
@@ -333,6 +334,10 @@ def decimated(result, names, every: int, index: int) -> dict:
 
 _UNBATCHED: dict[str, RolloutUnsupported] = {}
 """Per sweep fingerprint, why its runs are set up one by one (found once per process)."""
+_PLANS: dict[str, BatchPlan] = {}
+"""Per sweep fingerprint, the plan of its first chunk, which the later chunks of the process
+share (:meth:`BatchPlan.for_columns`); the last few sweeps only."""
+_PLANS_LOCK = threading.Lock()
 
 
 def batch_problem(spec, runs) -> str:
@@ -369,6 +374,10 @@ def _sweep_plan(spec, runs):
     if not fields:
         raise RolloutUnsupported(spec.source, "sweep", "no field varies")
     keep = [r for r in range(len(values)) if r not in derived]
+    known = _PLANS.get(spec.fingerprint())
+    plan = known.for_columns(columns[keep]) if known is not None and known.fields == fields else None
+    if plan is not None:
+        return plan, values, derived, keep
     try:
         plan = BatchPlan(Path(spec.scenario_file), table, fields, columns[keep], spec.allow_outside)
     except RolloutUnsupported as error:
@@ -377,6 +386,11 @@ def _sweep_plan(spec, runs):
         if "different places" not in str(error):
             _UNBATCHED[spec.fingerprint()] = error
         raise
+    if plan.base_values is not None:
+        with _PLANS_LOCK:
+            _PLANS[spec.fingerprint()] = plan
+            while len(_PLANS) > 8:
+                _PLANS.pop(next(iter(_PLANS)))
     return plan, values, derived, keep
 
 
