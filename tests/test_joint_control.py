@@ -155,3 +155,29 @@ def test_numeric_computed_torque_run_compiles_one_rnea_for_plant_and_law(tmp_pat
                           text=True, timeout=600, env=env)
     assert done.returncode == 0, done.stderr
     assert done.stdout.split() == ["0"]
+
+
+QUIET_PROGRAM = """
+import warnings
+import armlab
+with warnings.catch_warnings():          # as a Dask worker's first task may first import them
+    warnings.simplefilter("ignore")
+    from armlab.control.joint_space import JointInverseDynamics
+    from armlab.references.joint import Constant
+    from armlab.simulation import simulate
+prp = armlab.load_robot("prp")
+for dynamics in ("numeric", "auto"):
+    controller = JointInverseDynamics(prp, Constant([0.15, 0.5, 0.1]), 25.0, 10.0, dynamics=dynamics)
+    simulate(prp, controller, q0=[0, 0, 0], t_final=0.01, dt=1e-3)
+"""
+
+
+def test_a_compiled_function_in_a_law_prints_no_numba_warning_whenever_armlab_was_imported():
+    # numba warns at every typing of a first-class function value; armlab's filter is set by
+    # `import armlab`, so a module first imported inside a catch_warnings block cannot lose it.
+    import subprocess
+    import sys
+
+    done = subprocess.run([sys.executable, "-c", QUIET_PROGRAM], capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, done.stderr
+    assert "First-class function" not in done.stderr, done.stderr

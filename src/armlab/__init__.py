@@ -13,8 +13,18 @@ from __future__ import annotations
 import importlib
 import sys
 import types
+import warnings
 
 __version__ = "0.1.0"
+
+# numba warns, at every typing of a compiled function's value, that first-class functions are
+# experimental: armlab's use (the computed-torque law's params hold one, the law calls it) is
+# what the suite runs on every numba of the supported range, so the warning would tell a user
+# nothing to act on.  Set here, when armlab is first imported: a filter set by a module imported
+# later inside a ``warnings.catch_warnings()`` block is dropped when the block ends (seen in
+# Dask workers, which then printed the warning at every chunk).  The message alone is matched,
+# so that ``import armlab`` does not import numba.
+warnings.filterwarnings("ignore", "First-class function type feature is experimental")
 
 _HOMES = {
     "armlab.control.interaction": ("AdmittanceControl", "ComplianceControl", "ForceControl",

@@ -60,7 +60,7 @@ import weakref
 from pathlib import Path
 
 import numpy as np
-from numba import NumbaExperimentalFeatureWarning, cfunc
+from numba import cfunc
 
 from armlab.errors import CacheWarning, ClosedFormUnavailable
 from armlab.files import check_writable_folder, write_text
@@ -415,13 +415,6 @@ def plant_kernels(robot: Robot, dynamics: str = "auto", field: str = "dynamics")
     if module is None:
         return "numeric", forward_dynamics_packed, kinetic_energy_packed
     return "closed_form", module.forward_dynamics, module.kinetic_energy
-
-
-# numba warns, at every typing of a compiled function's value, that first-class functions are
-# experimental: armlab's use (a law's params hold one, the law calls it) is what the suite runs
-# on every numba of the supported range, so the warning would tell a user nothing to act on.
-warnings.filterwarnings("ignore", "First-class function type feature is experimental",
-                        NumbaExperimentalFeatureWarning)
 
 
 def _numeric_inverse_dynamics(model, data, q, qd, qdd, tau_out):
