@@ -7,9 +7,10 @@ the torque limits and the disturbance.  A field is probed by building the scenar
 the field at two other values of its column: every input that changes must hold exactly that
 value (a copy), in the same places for both, and nothing else of the set-up (its length,
 logging, signals, integer parameters) may change; else :class:`RolloutUnsupported` names the
-field and why.  The exception: a controller field that changes the controller's parameters
-alone, through a computation (a mass of its model), is *computed*: each run's controller is
-built from the file (:meth:`BatchPlan.controller_numbers`) and its whole buffer written.
+field and why.  The exceptions: a controller field that changes the controller's parameters
+alone, through a computation (a mass of its model), and a plant mass that changes the plant's
+model alone (numeric kernels) are *computed*: each run's controller or plant is built from the
+file (:meth:`BatchPlan.computed_numbers`) and its whole buffer written.
 Each value of a run is checked once per distinct value by building the object
 of the scenario file that holds it (:meth:`BatchPlan.problem`).
 """
@@ -106,7 +107,7 @@ class BatchPlan:
         self.invalid: dict[int, str] = {}
         self._checked: dict[tuple[int, float], str] = {}
         self._holders: dict = {}
-        self.computed: set[int] = set()     # fields that reach the controller through a computation
+        self.computed: dict[int, str] = {}  # field -> the input it reaches through a computation
         self.unprobed: set[int] = set()     # fields of one value in every valid run: not located
         first = self._first_valid()
         self.base_values = columns[first] if first is not None else None
@@ -128,7 +129,8 @@ class BatchPlan:
                     other = taken.setdefault((buffer, offset), j)
                     if other != j:
                         raise RolloutUnsupported(source, fields[j], f"lands where {fields[other]} does")
-        if self.truth is not None and any(name == "plant" for patch in self.patches for name, _ in patch):
+        if self.truth is not None and (any(name == "plant" for patch in self.patches for name, _ in patch)
+                                       or "plant" in self.computed.values()):
             raise RolloutUnsupported(source, "plant", "the adaptive metrics compare with the plant's own "
                                      "parameters: a batch of plants runs one by one")
 
@@ -281,7 +283,7 @@ class BatchPlan:
             if not math.isfinite(value):
                 return f"{self.source}: {self.fields[j]}: {value!r} is not a finite number"
             if j in self.computed:
-                continue                # checked by building the run's controller (controller_numbers)
+                continue                # checked by building the run's object (computed_numbers)
             problem = self._check(j, value)
             if problem:
                 return problem
@@ -316,11 +318,13 @@ class BatchPlan:
                 offsets = np.flatnonzero(probe != base[name])
                 if offsets.size and not (np.all(probe[offsets] == value)
                                          and np.all(base[name][offsets] == self.base_values[j])):
-                    if self._computed_root(j, inputs) is None:
+                    root = self._computed_root(j, inputs)
+                    if root is None:
                         raise RolloutUnsupported(self.source, field, "its value reaches the compiled "
                                                  "inputs through a computation (not as a copy) outside "
-                                                 "the controller's parameters: runs one by one")
-                    self.computed.add(j)
+                                                 "the controller's parameters and the plant's masses: "
+                                                 "runs one by one")
+                    self.computed[j] = root
                     return []
                 if offsets.size:
                     found.append((name, offsets))
@@ -332,46 +336,78 @@ class BatchPlan:
 
     # ------------------------------------------------------------------ computed fields
     def _computed_root(self, j: int, inputs) -> str | None:
-        """"controller" if field ``j`` (probed to ``inputs``) is read by the controller of the
-        scenario file alone and changes nothing but its parameters, else None."""
+        """The input field ``j`` (probed to ``inputs``) reaches through a computation, when a
+        run's value of it can be built alone: "controller" for a field of the file's controller
+        that changes nothing but its parameters; "plant" for a mass of the plant
+        (``plant_link_mass.<link>``) that changes nothing but the plant's model, read by the
+        numeric kernels (a closed form holds the numbers it was made for).  Else None."""
         from armlab.sweep.fields import _segments
 
-        if _segments(self.fields[j])[0] != "controller" or not isinstance(self.table.get("controller"), dict):
-            return None
         base = self._flat_inputs(self.inputs)
         changed = {name for name, probe in self._flat_inputs(inputs).items() if np.any(probe != base[name])}
-        return "controller" if changed == {"controller"} else None
+        root = _segments(self.fields[j])[0]
+        if (root == "controller" and isinstance(self.table.get("controller"), dict)
+                and changed == {"controller"}):
+            return "controller"
+        if root == "plant_link_mass" and changed == {"plant"} and self.setup.dynamics == "numeric":
+            return "plant"
+        return None
 
-    def controller_numbers(self, i: int) -> tuple[np.ndarray | None, str]:
-        """(the controller's parameter buffer of run ``i``, '') built from its scenario file with
-        all of the run's controller fields, as the scenario loader builds it; (None, why) if the
-        build refuses a value; (None, '') if the parameters differ in structure from the first
-        valid run's (another compiled law or model: the run runs on its own)."""
+    def computed_roots(self) -> list[str]:
+        """The inputs that computed fields reach, in the order of :meth:`computed_numbers`."""
+        return [root for root in ("controller", "plant") if root in self.computed.values()]
+
+    def computed_numbers(self, i: int) -> tuple[np.ndarray | None, str]:
+        """(the buffers of :meth:`computed_roots` for run ``i``, concatenated, '') built from the
+        scenario file with all of the run's fields of each, as the scenario loader builds them;
+        (None, why) if a build refuses a value; (None, '') if the run differs in structure from
+        the first valid run (another compiled law or model, or a plant whose closed form is on
+        disk): that run runs on its own."""
+        parts = []
+        for root in self.computed_roots():
+            try:
+                with warnings.catch_warnings():
+                    warnings.simplefilter("ignore")
+                    part = self._controller_buffer(i) if root == "controller" else self._plant_model(i)
+            except (ArmlabError, ValueError, ArithmeticError) as error:
+                return None, " ".join(str(error).split())
+            if part is None:
+                return None, ""
+            parts.append(part)
+        return np.concatenate(parts), ""
+
+    def _run_table(self, i: int, key: str) -> dict:
+        """The file's table ``key`` with run ``i``'s values of the fields under it."""
+        data = {key: dict(self.table.get(key, {}))}
+        copied = {id(data), id(data[key])}
+        for j, field in enumerate(self.fields):
+            if field.startswith(key + "."):
+                assign(data, field, float(self.columns[i, j]), copied)
+        return data[key]
+
+    def _controller_buffer(self, i: int) -> np.ndarray | None:
         from armlab.control.base import Controller
         from armlab.scenarios.tables import build
 
-        data = {"controller": dict(self.table["controller"])}
-        copied = {id(data), id(data["controller"])}
-        for j, field in enumerate(self.fields):
-            if field.startswith("controller."):
-                assign(data, field, float(self.columns[i, j]), copied)
-        problem, built = "", None
-        try:
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore")
-                built = build(Controller, data["controller"], self.source, "controller",
-                              plant=self.table.get("plant"), plant_tip=self.table.get("plant_tip"),
-                              allow_outside=self.allow_outside)
-                params = built.params()
-        except (ArmlabError, ValueError, ArithmeticError) as error:
-            problem = " ".join(str(error).split())
-        if problem:
-            return None, problem
-        flat, first = _Flat(params), self.inputs["controller"]
+        built = build(Controller, self._run_table(i, "controller"), self.source, "controller",
+                      plant=self.table.get("plant"), plant_tip=self.table.get("plant_tip"),
+                      allow_outside=self.allow_outside)
+        flat, first = _Flat(built.params()), self.inputs["controller"]
         if flat.shapes != first.shapes or [_structure(v) for v in flat.others] != [
                 _structure(v) for v in first.others]:
-            return None, ""
-        return flat.base, ""
+            return None
+        return flat.base
+
+    def _plant_model(self, i: int) -> np.ndarray | None:
+        from armlab.scenarios.tables import robot
+        from armlab.specialise import plant_kernels
+
+        plant = robot(self.table["plant"], self._run_table(i, "plant_link_mass"), self.source, "plant",
+                      self.table.get("plant_tip"), self.allow_outside)
+        kind = plant_kernels(plant, _simulate_arguments(self.scenario)["dynamics"])[0]
+        if kind != "numeric" or plant.packed.shape != self.inputs["plant"].shape:
+            return None
+        return plant.packed
 
     def _same_structure(self, setup, inputs) -> str:
         first = self.setup

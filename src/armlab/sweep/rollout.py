@@ -11,12 +11,12 @@ is found by *probing*: the scenario is built again with the field at other value
 column, and the compiled inputs (the controller's and environment's parameter arrays, the
 plant's model, x(0), the torque limits) that change must hold exactly that value (a copy: a gain,
 a set point, a stiffness, a limit, q0).  A controller field whose value reaches its
-parameters through a computation (a mass of its model: the inertias about the joints) has each
-run's controller built from the file and its whole parameter buffer written (a run whose
-controller differs in structure, another compiled model, is simulated on its own).  Any other
-field computed into the inputs (the plant's masses) or that changes their structure (a
-duration, another robot) is not batched: :class:`RolloutUnsupported` says which and why, and
-``armlab sweep`` runs such a sweep run by run.
+parameters through a computation (a mass of its model: the inertias about the joints), or a
+mass of the plant simulated by the numeric kernels, has each run's controller or plant built
+from the file and its whole buffer written (a run that differs in structure, another compiled
+model, is simulated on its own).  Any other field computed into the inputs or that changes
+their structure (a duration, another robot) is not batched: :class:`RolloutUnsupported` says
+which and why, and ``armlab sweep`` runs such a sweep run by run.
 
 Checks: every run's values pass the same checks as a scenario file's, applied once per distinct
 value of each field (the object of the file that holds the field, built with that value:
@@ -158,11 +158,17 @@ def _run_part(plan: BatchPlan, runs: list[int], keep_results: bool) -> tuple:
     targets, base = tuple(buffers[name] for name in names), tuple(bases[name] for name in names)
     patch = [(names.index(name), offset, j) for j, field in enumerate(plan.patches)
              for name, offsets in field for offset in offsets.tolist()]
-    if plan.computed:
-        # Each run's whole controller buffer, built from its file, as extra columns of the
-        # values; written first, so the copied fields land over it (with the same numbers).
-        width = plan.columns.shape[1]
-        patch = [(names.index("controller"), k, width + k) for k in range(bases["controller"].size)] + patch
+    computed = [(names.index(root), bases[root].size) for root in plan.computed_roots()]
+    width = sum(length for _, length in computed)
+    if computed:
+        # Each run's whole controller buffer or plant model, built from its file, as extra
+        # columns of the values; written first, so the copied fields land over them (with the
+        # same numbers).
+        column, extra = plan.columns.shape[1], []
+        for target, length in computed:
+            extra += [(target, k, column + k) for k in range(length)]
+            column += length
+        patch = extra + patch
     patch_target, patch_offset, patch_column = (np.array([p[k] for p in patch], dtype=np.int64)
                                                 for k in range(3))
     x = np.empty_like(buffers["x0"])
@@ -178,11 +184,11 @@ def _run_part(plan: BatchPlan, runs: list[int], keep_results: bool) -> tuple:
         # Checked here, on the worker threads: this Python overlaps the other threads' loops.
         part = runs[first:first + chunk_runs]
         problems = [plan.problem(i) for i in part]
-        alone, numbers = {}, []             # runs whose controller differs in structure; their buffers
-        if plan.computed:
+        alone, numbers = {}, []             # runs that differ in structure; the computed buffers
+        if computed:
             for k, i in enumerate(part):
                 if not problems[k]:
-                    vector, problems[k] = plan.controller_numbers(i)
+                    vector, problems[k] = plan.computed_numbers(i)
                     if vector is None and not problems[k]:
                         alone[i] = _run_alone(plan, i, keep_results)
                     elif vector is not None:
@@ -190,8 +196,8 @@ def _run_part(plan: BatchPlan, runs: list[int], keep_results: bool) -> tuple:
         chunk = np.asarray([i for i, why in zip(part, problems, strict=True) if not why and i not in alone],
                            dtype=np.int64)
         values = plan.columns[chunk]
-        if plan.computed:
-            values = np.hstack([values, np.reshape(numbers, (len(chunk), bases["controller"].size))])
+        if computed:
+            values = np.hstack([values, np.reshape(numbers, (len(chunk), width))])
         values = np.ascontiguousarray(values)
         loop.rk4_batch(core, fn, cparams, eparams, targets, base, work, fset, iset, setup.q_lo, setup.q_hi,
                        x, patch_target, patch_offset, patch_column, values, logs, ends)
@@ -230,8 +236,8 @@ def _run_part(plan: BatchPlan, runs: list[int], keep_results: bool) -> tuple:
 
 def _run_alone(plan, i: int, keep_results: bool) -> tuple:
     """(status, diagnosis, {metric: value}, result or None) of run ``i`` simulated on its own,
-    as its scenario file alone would run it (a controller whose parameters differ in structure
-    from the batch's: another compiled model)."""
+    as its scenario file alone would run it (its controller's parameters differ in structure
+    from the batch's, or its plant has a closed form on disk: another compiled model)."""
     from armlab.simulation import SimulationDiverged
 
     try:
