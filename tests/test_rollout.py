@@ -174,6 +174,14 @@ def test_masses_of_the_plant_roll_out_as_their_single_runs():
     assert not np.array_equal(out["results"][0].q, out["results"][4].q)
 
 
+def test_a_plant_mass_whose_first_plant_has_a_closed_form_is_named():
+    from armlab.specialise import closed_form_module
+
+    closed_form_module(armlab.load_robot("prp").with_link_mass("link4", 0.14))
+    with pytest.raises(RolloutUnsupported, match="link4: the first run's plant runs a closed form"):
+        rollout("a7_id_via_points", {"plant_link_mass.link4": [0.14, 0.2], "simulation.t_final": 0.05})
+
+
 @pytest.mark.parametrize("name", bundled_sweep_names())
 def test_a_sweep_chunk_runs_as_a_batch_with_the_rows_of_its_runs(name, monkeypatch):
     spec = load_sweep(name)

@@ -319,6 +319,10 @@ class BatchPlan:
                 if offsets.size and not (np.all(probe[offsets] == value)
                                          and np.all(base[name][offsets] == self.base_values[j])):
                     root = self._computed_root(j, inputs)
+                    closed = self.setup.dynamics != "numeric"
+                    if root is None and field.startswith("plant_link_mass.") and closed:
+                        raise RolloutUnsupported(self.source, field, "the first run's plant runs a closed "
+                                                 "form, made for its own masses: runs one by one")
                     if root is None:
                         raise RolloutUnsupported(self.source, field, "its value reaches the compiled "
                                                  "inputs through a computation (not as a copy) outside "
