@@ -363,7 +363,7 @@ def main():
         target = "" if workers == 1 else (f"; target ≥ {TARGET}: "
                                           f"{'met' if per_core >= TARGET else 'NOT met'}")
         print(f"  {name:<22}{seconds:>6.2f} s wall, steady {steady:>6.0f} runs/s, "
-              f"{per_core:.2f} per core{target}")
+              f"{per_core:.3f} per core{target}")
 
 
 if __name__ == "__main__":
