@@ -107,6 +107,7 @@ def test_threads_change_nothing_and_results_are_kept_on_request():
     direct = armlab.simulate(scenario.plant, replace(scenario.controller, reference=reference),
                              **{**scenario.simulation, "t_final": 0.1})
     np.testing.assert_array_equal(direct.q, result.q)
+    assert result.meta["controller"] == direct.meta["controller"]      # its own set point
 
 
 def test_what_cannot_be_batched_is_named():

@@ -109,6 +109,11 @@ def rollout(scenario, batch: dict, *, threads: int | None = None, allow_outside:
     out["status"], out["diagnosis"] = status, diagnosis
     out.update(metrics)
     if keep_results:
+        for i, result in enumerate(results):
+            if result is not None:
+                # A batched run's result is made with the first run's set-up: its meta gets the
+                # run's own controller (its gains, its reference, its model's name).
+                result.meta["controller"] = plan.scenario_of(columns[i]).controller.describe()
         out["results"] = results
     return out
 
