@@ -318,16 +318,9 @@ class BatchPlan:
                 offsets = np.flatnonzero(probe != base[name])
                 if offsets.size and not (np.all(probe[offsets] == value)
                                          and np.all(base[name][offsets] == self.base_values[j])):
-                    root = self._computed_root(j, inputs)
-                    closed = self.setup.dynamics != "numeric"
-                    if root is None and field.startswith("plant_link_mass.") and closed:
-                        raise RolloutUnsupported(self.source, field, "the first run's plant runs a closed "
-                                                 "form, made for its own masses: runs one by one")
+                    root, reason = self._computed_root(j, inputs)
                     if root is None:
-                        raise RolloutUnsupported(self.source, field, "its value reaches the compiled "
-                                                 "inputs through a computation (not as a copy) outside "
-                                                 "the controller's parameters and the plant's masses: "
-                                                 "runs one by one")
+                        raise RolloutUnsupported(self.source, field, reason)
                     self.computed[j] = root
                     return []
                 if offsets.size:
@@ -339,12 +332,12 @@ class BatchPlan:
         return patch
 
     # ------------------------------------------------------------------ computed fields
-    def _computed_root(self, j: int, inputs) -> str | None:
-        """The input field ``j`` (probed to ``inputs``) reaches through a computation, when a
-        run's value of it can be built alone: "controller" for a field of the file's controller
-        that changes nothing but its parameters; "plant" for a mass of the plant
+    def _computed_root(self, j: int, inputs) -> tuple[str | None, str]:
+        """(the input, '') that field ``j`` (probed to ``inputs``) reaches through a computation,
+        when a run's value of it can be built alone: "controller" for a field of the file's
+        controller that changes nothing but its parameters; "plant" for a mass of the plant
         (``plant_link_mass.<link>``) that changes nothing but the plant's model, read by the
-        numeric kernels (a closed form holds the numbers it was made for).  Else None."""
+        numeric kernels (a closed form holds the numbers it was made for).  Else (None, why not)."""
         from armlab.sweep.fields import _segments
 
         base = self._flat_inputs(self.inputs)
@@ -352,10 +345,13 @@ class BatchPlan:
         root = _segments(self.fields[j])[0]
         if (root == "controller" and isinstance(self.table.get("controller"), dict)
                 and changed == {"controller"}):
-            return "controller"
-        if root == "plant_link_mass" and changed == {"plant"} and self.setup.dynamics == "numeric":
-            return "plant"
-        return None
+            return "controller", ""
+        if root == "plant_link_mass" and changed == {"plant"}:
+            if self.setup.dynamics == "numeric":
+                return "plant", ""
+            return None, "the first run's plant runs a closed form, made for its own masses: runs one by one"
+        return None, ("its value reaches the compiled inputs through a computation (not as a copy) outside "
+                      "the controller's parameters and the plant's masses: runs one by one")
 
     def computed_roots(self) -> list[str]:
         """The inputs that computed fields reach, in the order of :meth:`computed_numbers`."""
