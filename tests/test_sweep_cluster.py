@@ -62,14 +62,25 @@ def test_dask_table_equals_the_thread_pool_table(tmp_path, cluster):
 
 
 def test_chunks_batched_into_dask_tasks_give_the_same_table(tmp_path, cluster, monkeypatch):
-    """A Dask task runs several chunks (``TASKS_PER_THREAD``); each chunk is still written once,
-    and the table is the thread pool's, bit for bit."""
+    """A Dask task runs as many chunks as fill ``TASK_SECONDS`` (one until a chunk was timed), at
+    most a ``TASKS_PER_THREAD``-th share per thread; each chunk is still written once, and the
+    table is the thread pool's, bit for bit."""
     from armlab.sweep import runner
 
-    assert runner.batches(list(range(500)), 2) == [list(range(i, min(i + 7, 500))) for i in range(0, 500, 7)]
-    assert runner.batches([3, 4, 9], 2) == [[3], [4], [9]]
+    assert runner.batch_size(500, 2, None) == 1
+    assert runner.batch_size(500, 2, runner.TASK_SECONDS / 10) == 10              # by time
+    assert runner.batch_size(500, 2, runner.TASK_SECONDS / 1000) == 63             # 500 / (4 × 2)
+    assert runner.batch_size(500, 2, 10 * runner.TASK_SECONDS) == 1
+    assert runner.batch_size(500, 2, 0.0) == 63
+    monkeypatch.setattr(runner, "TASK_SECONDS", 1e9)
     monkeypatch.setattr(runner, "TASKS_PER_THREAD", 1)
-    assert runner.batches(list(range(12)), 2) == [list(range(6)), list(range(6, 12))]   # 2 tasks
+    sizes, size_of = [], runner.batch_size
+
+    def recording(*args):
+        sizes.append(size_of(*args))
+        return sizes[-1]
+
+    monkeypatch.setattr(runner, "batch_size", recording)
     spec = spec_of(tmp_path, "batched", chunk=1)
     dask = sweep(spec, tmp_path / "dask", scheduler=cluster.scheduler_address)
     threads = sweep(spec_of(tmp_path, "threads", chunk=1), tmp_path / "threads", threads=2)
@@ -77,6 +88,9 @@ def test_chunks_batched_into_dask_tasks_give_the_same_table(tmp_path, cluster, m
     pd.testing.assert_frame_equal(read_results(dask.folder).to_pandas(),
                                   read_results(threads.folder).to_pandas(), check_exact=True)
     assert len(list((tmp_path / "dask" / "runs").glob("part-*.parquet"))) == 12
+    # Four first tasks of one chunk (two per worker thread), then half of the 12 chunks a task
+    # (the last task takes the 2 chunks left).
+    assert sizes == [1, 1, 1, 1, 6, 6], sizes
 
 
 def test_a_worker_killed_mid_sweep_loses_no_run(tmp_path, cluster):
