@@ -25,12 +25,14 @@ each run, every run measured and written to Parquet as ``armlab sweep`` does.
 
 Per core: rate / (cores × one-thread rate); target ≥ 0.9 on every executor.  The driver's
 memory: its resident set sampled while the sweep runs, at 10 % and at 100 % of the runs;
-target: flat (it grows by less than :data:`FLAT_MB` MB while nine tenths of the runs pass).
+target: flat (it grows by less than :data:`FLAT_MB` MB while nine tenths of the runs pass), on
+each executor's :data:`RUNS` runs and on :data:`MEMORY_RUNS` runs on a thread per core.
 Before anything is timed, :func:`check_agreement` checks that every executor writes the same
 table, bit for bit (also run by the test suite on a few runs).
 
 Run: ``python benchmarks/bench_sweep.py`` or ``make bench``.  ``ARMLAB_BENCH_SWEEP_RUNS``
-changes :data:`RUNS`, ``ARMLAB_BENCH_A7_RUNS`` :data:`A7_RUNS`.
+changes :data:`RUNS`, ``ARMLAB_BENCH_A7_RUNS`` :data:`A7_RUNS`, ``ARMLAB_BENCH_MEMORY_RUNS``
+:data:`MEMORY_RUNS`.
 """
 
 from __future__ import annotations
@@ -60,6 +62,8 @@ chunk_size = {chunk}
 "controller.reference.value[1]" = {{ uniform = [0, 1.5707963267948966] }}
 """
 MUJOCO_BATCH = 5000
+MEMORY_RUNS = int(os.environ.get("ARMLAB_BENCH_MEMORY_RUNS", 1_000_000))
+MEMORY_CHUNK = 2000
 A7_RUNS = int(os.environ.get("ARMLAB_BENCH_A7_RUNS", 1000))
 A7_SWEEP = """
 title = "benchmark: A7 via-point tracking of 1 s, random natural frequency"
@@ -305,6 +309,15 @@ def a7_case(folder, cores: int) -> list[tuple[str, float, float]]:
     return rows
 
 
+def memory_case(folder, cores: int):
+    """(wall seconds, :class:`Memory`) of :data:`MEMORY_RUNS` runs of the A6 sweep on a thread
+    per core (what ``armlab sweep`` picks for it), in chunks of :data:`MEMORY_CHUNK`: the
+    driver's memory from 10 % to 100 % of a million runs."""
+    spec = spec_of(folder, MEMORY_RUNS, chunk=MEMORY_CHUNK, name="memory")
+    seconds, _, memory = timed(spec, folder, threads=cores)
+    return seconds, memory
+
+
 def main():
     from armlab.sweep import sweep
 
@@ -328,6 +341,7 @@ def main():
             rows.append((name, RUNS, seconds, RUNS / seconds, steady, memory))
         rollout_rows = time_rollout(spec, cores)
         a7_rows = a7_case(folder, cores)
+        million_seconds, million = memory_case(folder, cores)
         mujoco_rows = []
         if mujoco_available():
             print(f"MuJoCo agreement: max |Δq| {check_mujoco():.2g}")
@@ -368,6 +382,11 @@ def main():
               f"{'met' if per_core >= TARGET else 'NOT met'}); driver memory "
               f"{growth:+.0f} MB from 10 % to 100 % of the runs "
               f"({'flat' if growth < FLAT_MB else 'NOT flat'})")
+    growth = million.at(1.0) - million.at(0.1)
+    print(f"\nDriver memory over {MEMORY_RUNS} runs of the same sweep on {cores} threads "
+          f"({million_seconds:.0f} s, {MEMORY_RUNS / million_seconds:.0f} runs/s): "
+          f"{million.at(0.1):.0f} MB at 10 %, {million.at(1.0):.0f} MB at 100 %, {growth:+.0f} MB "
+          f"({'flat' if growth < FLAT_MB else 'NOT flat'})")
     print(f"\nSweep: {A7_RUNS} runs of the A7 via-point tracking shortened to 1 s, random ω_n, metrics "
           "and Parquet (steady: after the first chunk)")
     a7_one = a7_rows[0][2]

@@ -238,6 +238,30 @@ def test_a_later_chunk_shares_the_first_chunks_plan_unless_a_field_was_not_locat
     assert plans[1] is not plans[0] and plans[2] is plans[1]
 
 
+
+def test_the_checks_a_sweeps_chunks_share_stay_bounded(tmp_path, monkeypatch):
+    """Drawn values are all distinct: the shared plan forgets its checks at CHECKED_VALUES, so a
+    long sweep's driver does not grow with it, and a bad value is still refused after that."""
+    from armlab.sweep import load_sweep_file
+
+    sweep_rollout, plan_module = sys.modules["armlab.sweep.rollout"], sys.modules["armlab.sweep.plan"]
+    monkeypatch.setattr(sweep_rollout, "_PLANS", {})
+    monkeypatch.setattr(plan_module, "CHECKED_VALUES", 5)
+    path = tmp_path / "drawn.toml"
+    path.write_text('scenario = "a6_pd_none"\nchunk_size = 4\nruns = 24\nseed = 3\n[set]\n'
+                    '"simulation.t_final" = 0.02\n[random]\n"controller.kp[0]" = { uniform = [-40, 200] }\n')
+    spec = load_sweep_file(path)
+    rows = [row for chunk in range(spec.n_chunks) for row in sweep_rows(spec, spec.chunk_runs(chunk))]
+    plan = sweep_rollout._PLANS[spec.fingerprint()]
+    assert 0 < len(plan._checked) <= 5
+    invalid = [row for row in rows if row["status"] == "invalid"]
+    assert invalid and all(row["controller.kp[0]"] < 0 for row in invalid)
+    assert len(invalid) == sum(row["controller.kp[0]"] < 0 for row in rows)
+    for row in rows[-4:]:
+        single = run_one(spec, row["run"])
+        assert (row["status"], row["diagnosis"]) == (single["status"], single["diagnosis"])
+        assert all(_same(single[m], row[m]) for m in METRIC_NAMES), row["run"]
+
 SMALL_SWEEPS = {
     "batched": """scenario = "a11_compliance"
 [set]

@@ -97,6 +97,12 @@ def _simulate_arguments(scenario) -> dict:
     return {**_SIMULATE_DEFAULTS, **scenario.simulation}
 
 
+CHECKED_VALUES = 10_000
+"""Most (field, value) checks a plan remembers: a grid's few values are checked once for the
+whole sweep, while drawn values, all distinct, would otherwise pile up in the plan that a
+sweep's chunks share (the driver's memory grew by 119 MB over 10⁶ drawn A6 runs)."""
+
+
 class BatchPlan:
     """The first valid run set up, and where each field's value lands in its inputs."""
 
@@ -202,6 +208,8 @@ class BatchPlan:
                 known = _problem(lambda: self._build(values))
             else:
                 known = _problem(lambda: holder(float(value)))
+            if len(self._checked) >= CHECKED_VALUES:
+                self._checked.clear()
             self._checked[key] = known
         return known
 
