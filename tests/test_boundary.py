@@ -2,7 +2,7 @@
 
 import numpy as np
 import pytest
-from numba import njit, typeof, types
+from numba import cfunc, njit, typeof, types
 
 import armlab
 from armlab.kernels.boundary import (
@@ -12,6 +12,7 @@ from armlab.kernels.boundary import (
     call_none,
     kernel_address,
     stack_address,
+    with_functions,
 )
 from armlab.kernels.plant import forward_dynamics_packed, kinetic_energy_packed, make_data
 from armlab.simulation import loop
@@ -183,3 +184,53 @@ def test_borrowed_arrays_are_the_same_memory():
     total = _scale_borrowed(values, (b, c), 2.0)
     np.testing.assert_array_equal(values, [0.0, 2.0, 4.0])   # written through the borrowed view
     assert b[0] == 9.0 and total == 15.0
+
+
+@cfunc("float64(float64)", cache=False)
+def _plus_one(x):
+    return x + 1.0
+
+
+@cfunc("float64(float64)", cache=False)
+def _twice(x):
+    return 2.0 * x
+
+
+@njit(cache=False)
+def _through_crossing(values, functions, x):
+    params = with_functions(borrowed(values), functions)
+    first, (scale, second), arrays = params
+    return second(first(x)) * scale + arrays[0][1]
+
+
+def test_functions_cross_beside_their_tuple_and_are_put_back_in_order():
+    """crossing takes each compiled function out of a (nested) parameter tuple, depth first;
+    with_functions puts them back: the same numba type as the whole tuple, the same calls."""
+    a = np.array([0.5, 0.25])
+    params = (_plus_one, (3.0, _twice), (a, a))
+    values, functions = loop.crossing(params)
+    assert values == (None, (3.0, None), (a, a)) and functions == (_plus_one, _twice)
+    assert values[2][0] is a
+    assert _through_crossing(values, functions, 1.0) == 2.0 * 2.0 * 3.0 + 0.25
+    swapped = (_twice, (3.0, _plus_one), (a, a))
+    assert _through_crossing(*loop.crossing(swapped), 1.0) == (2.0 + 1.0) * 3.0 + 0.25
+
+    @njit(cache=False)
+    def filled_type(values, functions):
+        return with_functions(values, functions)
+
+    filled_type(values, functions)
+    (signature,) = filled_type.nopython_signatures
+    assert signature.return_type == typeof(loop.plain_params(params))
+    assert loop.crossing((1.0, np.int64(2), True, a)) == ((1.0, np.int64(2), True, a), ())
+
+
+def test_with_functions_refuses_counts_that_do_not_match():
+    @njit(cache=False)
+    def filled(values, functions):
+        return with_functions(values, functions)
+
+    with pytest.raises(Exception, match="more None items than functions"):
+        filled((None, None), (_plus_one,))
+    with pytest.raises(Exception, match="more functions than None items"):
+        filled((1.0, None), (_plus_one, _twice))

@@ -450,8 +450,8 @@ def _run_rk4(setup, cparams, meta, on_divergence):
 
 def _rk4(setup, cparams, fset, iset, out):
     fn, pp, work = setup.workspace(cparams)
-    cplain, eplain = loop.plain_params(cparams), loop.plain_params(setup.eparams)
-    return loop.rk4_run(loop.core_address("rk4"), fn, pp, cplain, eplain, setup.dist,
+    (cplain, cfunctions), (eplain, efunctions) = loop.crossing(cparams), loop.crossing(setup.eparams)
+    return loop.rk4_run(loop.core_address("rk4"), fn, pp, cplain, cfunctions, eplain, efunctions, setup.dist,
                                setup.x0.copy(), work, fset, iset, setup.lim, setup.q_lo, setup.q_hi,
                                out)
 
@@ -461,7 +461,7 @@ def _run_adaptive(setup, cparams, meta, on_divergence, rtol, atol, integrator, m
         raise SimulationError(f"integrator: {integrator!r} is not one of {', '.join(SOLVERS)}")
     n, width = setup.n, setup.sig_width
     fn, pp, work = setup.workspace(cparams)
-    cplain, eplain = loop.plain_params(cparams), loop.plain_params(setup.eparams)
+    (cplain, cfunctions), (eplain, efunctions) = loop.crossing(cparams), loop.crossing(setup.eparams)
     rhs_core, log_core = loop.core_address("rhs"), loop.core_address("log")
     has_env = setup.environment is not None
     xdot = np.zeros_like(setup.x0)
@@ -473,7 +473,7 @@ def _run_adaptive(setup, cparams, meta, on_divergence, rtol, atol, integrator, m
         # SciPy may hand a strided column (Radau's, BDF's numerical Jacobian); the loop
         # reads its state as contiguous float64.
         x = np.ascontiguousarray(x, dtype=float)
-        loop.rhs(rhs_core, fn, float(t), x, pp, cplain, eplain, setup.dist, has_env,
+        loop.rhs(rhs_core, fn, float(t), x, pp, cplain, cfunctions, eplain, efunctions, setup.dist, has_env,
                         call_law, z_rate, setup.lim, work, width, xdot)
         return xdot.copy()
 
@@ -490,7 +490,7 @@ def _run_adaptive(setup, cparams, meta, on_divergence, rtol, atol, integrator, m
             if setup.sampled:
                 if first > 0:
                     x[2 * n:] += setup.every * setup.dt * zdot_held
-                loop.rhs(rhs_core, fn, grid[first], x, pp, cplain, eplain, setup.dist,
+                loop.rhs(rhs_core, fn, grid[first], x, pp, cplain, cfunctions, eplain, efunctions, setup.dist,
                                 has_env, True, 0.0, setup.lim, work, width, xdot)
                 zdot_held = work[loop.zdot_slice(n, setup.k)].copy()
             args = (not setup.sampled, 0.0 if setup.sampled else 1.0)
@@ -505,7 +505,7 @@ def _run_adaptive(setup, cparams, meta, on_divergence, rtol, atol, integrator, m
             if bad >= 0:
                 status, step, joint, keep = code, first + bad, where, bad
             loop.log_rows(log_core, fn, grid[first:first + keep],
-                                 np.ascontiguousarray(xs[:keep]), pp, cplain, eplain,
+                                 np.ascontiguousarray(xs[:keep]), pp, cplain, cfunctions, eplain, efunctions,
                                  setup.dist, has_env, not setup.sampled, setup.lim, work, setup.layout,
                                  out, rows)
             rows += keep

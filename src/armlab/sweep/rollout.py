@@ -155,7 +155,7 @@ def _run_part(plan: BatchPlan, runs: list[int], keep_results: bool) -> tuple:
     bases = {"controller": inputs["controller"].base, "environment": inputs["environment"].base,
              **{name: inputs[name] for name in ("plant", "x0", "lim", "dist")}}
     fn, _, work = setup.workspace(cparams)
-    cparams, eparams = loop.plain_params(cparams), loop.plain_params(eparams)
+    (cparams, cfunctions), (eparams, efunctions) = loop.crossing(cparams), loop.crossing(eparams)
     core = loop.core_address("rk4")
     fset, iset = setup.settings()
     size = setup.outputs().size
@@ -204,8 +204,9 @@ def _run_part(plan: BatchPlan, runs: list[int], keep_results: bool) -> tuple:
         if computed:
             values = np.hstack([values, np.reshape(numbers, (len(chunk), width))])
         values = np.ascontiguousarray(values)
-        loop.rk4_batch(core, fn, cparams, eparams, targets, base, work, fset, iset, setup.q_lo, setup.q_hi,
-                       x, patch_target, patch_offset, patch_column, values, logs, ends)
+        loop.rk4_batch(core, fn, cparams, cfunctions, eparams, efunctions, targets, base, work, fset, iset,
+                       setup.q_lo, setup.q_hi, x, patch_target, patch_offset, patch_column, values, logs,
+                       ends)
         limits = np.repeat(bases["lim"][None, :], len(chunk), axis=0)
         for offset, j in lim_column:
             limits[:, offset] = values[:, j]
