@@ -1,5 +1,7 @@
 """Indirect calls of compiled kernels (armlab.kernels.boundary) and the loop's scratch layout."""
 
+import sys
+
 import numpy as np
 import pytest
 from numba import cfunc, njit, typeof, types
@@ -219,7 +221,12 @@ def test_functions_cross_beside_their_tuple_and_are_put_back_in_order():
     def filled_type(values, functions):
         return with_functions(values, functions)
 
-    filled_type(values, functions)
+    before = sys.getrefcount(a)
+    for _ in range(3):
+        filled = filled_type(values, functions)        # back in Python: its own references
+        assert np.shares_memory(filled[2][0], a) and filled[0] is not None
+    del filled
+    assert sys.getrefcount(a) == before
     (signature,) = filled_type.nopython_signatures
     assert signature.return_type == typeof(loop.plain_params(params))
     assert loop.crossing((1.0, np.int64(2), True, a)) == ((1.0, np.int64(2), True, a), ())

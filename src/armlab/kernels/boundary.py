@@ -267,6 +267,8 @@ def with_functions(typingctx, values, functions):
     def codegen(context, builder, sig, args):
         value, packed = args
         items = [builder.extract_value(packed, i) for i in range(len(sig.args[1]))]
-        return _fill(context, builder, sig.args[0], value, sig.return_type, items, 0)[0]
+        # A new reference to what ``values`` holds (nothing to count when it is borrowed).
+        filled = _fill(context, builder, sig.args[0], value, sig.return_type, items, 0)[0]
+        return impl_ret_borrowed(context, builder, sig.return_type, filled)
 
     return result(values, functions), codegen
