@@ -7,6 +7,7 @@ import pytest
 from numba import cfunc, njit, typeof, types
 
 import armlab
+from armlab.control import entry
 from armlab.kernels.boundary import (
     borrowed,
     call_float,
@@ -210,12 +211,12 @@ def test_functions_cross_beside_their_tuple_and_are_put_back_in_order():
     with_functions puts them back: the same numba type as the whole tuple, the same calls."""
     a = np.array([0.5, 0.25])
     params = (_plus_one, (3.0, _twice), (a, a))
-    values, functions = loop.crossing(params)
+    values, functions = entry.crossing(params)
     assert values == (None, (3.0, None), (a, a)) and functions == (_plus_one, _twice)
     assert values[2][0] is a
     assert _through_crossing(values, functions, 1.0) == 2.0 * 2.0 * 3.0 + 0.25
     swapped = (_twice, (3.0, _plus_one), (a, a))
-    assert _through_crossing(*loop.crossing(swapped), 1.0) == (2.0 + 1.0) * 3.0 + 0.25
+    assert _through_crossing(*entry.crossing(swapped), 1.0) == (2.0 + 1.0) * 3.0 + 0.25
 
     @njit(cache=False)
     def filled_type(values, functions):
@@ -228,8 +229,8 @@ def test_functions_cross_beside_their_tuple_and_are_put_back_in_order():
     del filled
     assert sys.getrefcount(a) == before
     (signature,) = filled_type.nopython_signatures
-    assert signature.return_type == typeof(loop.plain_params(params))
-    assert loop.crossing((1.0, np.int64(2), True, a)) == ((1.0, np.int64(2), True, a), ())
+    assert signature.return_type == typeof(entry.plain_params(params))
+    assert entry.crossing((1.0, np.int64(2), True, a)) == ((1.0, np.int64(2), True, a), ())
 
 
 def test_with_functions_refuses_counts_that_do_not_match():

@@ -13,6 +13,7 @@ from numba import njit, typeof, types
 from numba.core.datamodel import default_manager
 
 import armlab
+from armlab.control import entry
 from armlab.control.adaptive import SlotineLi
 from armlab.control.base import Controller, Signal
 from armlab.errors import ProtocolError
@@ -153,7 +154,7 @@ def test_the_shared_loop_functions_never_see_a_named_tuple(monkeypatch):
     # A law without an entry (one that cannot be imported by name) goes through law_trampoline.
     monkeypatch.setattr(simulator, "generated_entry", lambda law: None)
     scenario.run(t_final=0.01)
-    shared = (loop.rk4_run, loop.rhs, loop.log_rows, loop.law_trampoline,
+    shared = (loop.rk4_run, loop.rhs, loop.log_rows, entry.law_trampoline,
               loop.env_trampoline)
     signatures = [(function.py_func.__name__, signature) for function in shared
                   for signature in function.signatures]
@@ -168,8 +169,8 @@ def test_a_named_tuple_and_its_plain_tuple_share_numba_layout(item):
     # The loop stores the plain tuple and the law reads it as its NamedTuple (integrators).
     params = item.params()
     named, plain = default_manager.lookup(typeof(params)), default_manager.lookup(
-        typeof(loop.plain_params(params)))
-    assert typeof(loop.plain_params(params)) != typeof(params)
+        typeof(entry.plain_params(params)))
+    assert typeof(entry.plain_params(params)) != typeof(params)
     assert named.get_value_type() == plain.get_value_type()
     assert named.get_data_type() == plain.get_data_type()
     assert named.get_argument_type() == plain.get_argument_type()

@@ -238,7 +238,6 @@ def test_a_later_chunk_shares_the_first_chunks_plan_unless_a_field_was_not_locat
     assert plans[1] is not plans[0] and plans[2] is plans[1]
 
 
-
 def test_the_checks_a_sweeps_chunks_share_stay_bounded(tmp_path, monkeypatch):
     """Drawn values are all distinct: the shared plan forgets its checks at CHECKED_VALUES, so a
     long sweep's driver does not grow with it, and a bad value is still refused after that."""
@@ -261,6 +260,7 @@ def test_the_checks_a_sweeps_chunks_share_stay_bounded(tmp_path, monkeypatch):
         single = run_one(spec, row["run"])
         assert (row["status"], row["diagnosis"]) == (single["status"], single["diagnosis"])
         assert all(_same(single[m], row[m]) for m in METRIC_NAMES), row["run"]
+
 
 SMALL_SWEEPS = {
     "batched": """scenario = "a11_compliance"

@@ -256,7 +256,7 @@ def with_functions(typingctx, values, functions):
     """``with_functions(values, functions)``: the tuple ``values`` (nested tuples too) with its
     ``None`` items, depth first, replaced by the items of the tuple ``functions`` (compiled
     functions), in order: the parameter tuple as the law sees it (see the module docstring,
-    and ``armlab.simulation.loop.crossing`` for the Python side).  The result holds references
+    and ``armlab.control.entry.crossing`` for the Python side).  The result holds references
     of its own to the arrays of ``values``, as numba's functions return them (none to count
     when ``values`` is :func:`borrowed`, as in the loop's entries)."""
     if not isinstance(values, types.BaseTuple) or not isinstance(functions, types.BaseTuple):

@@ -15,12 +15,13 @@ robot's closed form).
 A module-level law is called through its generated entry (``armlab.control.entry``): the law
 compiled inlined into a function that receives the loop's scratch array and three sizes
 instead of seven arrays and the parameter tuple by value (1.3–1.5 times faster A6–A8 runs).
-A law without one (not importable by name) is called by :func:`law_trampoline` through its
-address.
+A law without one (not importable by name) is called by ``law_trampoline`` (of
+``armlab.control.entry``) through its address.
 
-The parameters cross into the shared functions as plain tuples (:func:`plain_params`), each
-compiled function in them beside its tuple (:func:`crossing`, put back by ``with_functions``:
-numba types a tuple holding a function item by item in Python, 0.1 ms a call).  numba's
+The parameters cross into the shared functions as plain tuples (``plain_params`` of
+``armlab.control.entry``), each compiled function in them beside its tuple (``crossing``, put
+back by ``with_functions``: numba types a tuple holding a function item by item in Python,
+0.1 ms a call).  numba's
 disk cache keeps every signature a cached function was compiled for in one index, which it
 unpickles whole on every load: one signature naming a class that another process cannot import
 (the NamedTuple of a controller written in a script or a test module) would make every later
@@ -85,7 +86,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, typeof, types
 
-from armlab.control.entry import law_views
+from armlab.control.entry import law_entry_types, law_trampoline, law_views, plain_params
 from armlab.kernels.boundary import (
     borrowed,
     buffer_view,
@@ -196,33 +197,6 @@ def _type_key(value):
 _FN: dict = {}
 
 
-def plain_params(params):
-    """``params`` with every NamedTuple in it (nested ones too) as a plain tuple of the same
-    fields, the same objects: what the shared loop functions receive (module docstring)."""
-    if isinstance(params, tuple):
-        return tuple(plain_params(value) for value in params)
-    return params
-
-
-def crossing(params) -> tuple[tuple, tuple]:
-    """``params`` as the loop entries (``rk4_run`` …) receive it from Python: its plain tuple
-    (:func:`plain_params`) with None in place of each compiled function, and those functions,
-    depth first, in a tuple of their own; ``with_functions`` puts them back in compiled code.
-    numba's dispatcher types the first from a fingerprint computed in C and only the second in
-    Python (``armlab.kernels.boundary``: 16 µs a call instead of 120 µs for the A7 law's)."""
-    functions = []
-
-    def strip(value):
-        if isinstance(value, tuple):
-            return tuple(strip(item) for item in value)
-        if isinstance(value, (np.ndarray, np.generic, bool, int, float)):
-            return value
-        functions.append(value)
-        return None
-
-    return strip(params), tuple(functions)
-
-
 def addresses(law, env_law, cparams, eparams, forward_dynamics=None, kinetic_energy=None, entry=None,
               has_env=True, has_dist=True):
     """The ``fn`` array for a loop with these parameters (compiles what is missing; remembered
@@ -230,7 +204,7 @@ def addresses(law, env_law, cparams, eparams, forward_dynamics=None, kinetic_ene
 
     The argument types are those ``stage`` passes; ``forward_dynamics`` and ``kinetic_energy``
     default to the general kernels of ``armlab.kernels.plant``; ``entry`` is the law's
-    generated entry (the law inlined, see the module docstring), None for :func:`law_trampoline`.
+    generated entry (the law inlined, see the module docstring), None for ``law_trampoline``.
     A loop run without an environment (``has_env`` False) or without disturbances
     (``has_dist`` False) never calls the kinematics and the environment's law, or the
     disturbance kernel: their slots hold 0 and they are not compiled (several seconds with
@@ -242,12 +216,6 @@ def addresses(law, env_law, cparams, eparams, forward_dynamics=None, kinetic_ene
         fn = _FN[key] = _addresses(law, env_law, cparams, eparams, forward_dynamics, kinetic_energy,
                                    entry, bool(has_env), bool(has_dist))
     return fn
-
-
-def law_entry_types(cparams_type) -> tuple:
-    """Argument types of a law entry (``law_trampoline`` or a generated one) for parameters
-    of numba type ``cparams_type``."""
-    return (types.CPointer(cparams_type), _I64, _F64, _VEC, _I64, _I64, _I64)
 
 
 def compile_shared() -> None:
@@ -327,15 +295,6 @@ def plant_data(work, n):
     """The plant's data: the last ``workspace_size(n)`` entries of ``work``."""
     size = workspace_size(n)
     return buffer_view(work, work.shape[0] - size, size, np.float64)
-
-
-@njit(cache=True)
-def law_trampoline(cp, law, t, work, n, k, s):
-    """The entry of a law without its own: the law at ``law`` called with the parameter
-    tuple at ``cp`` (a CPointer to it) on the scratch views of ``work``."""
-    work = borrowed(work)
-    q, qd, z, h_e, tau_out, zdot_out, signals_out = law_views(work, n, k, s)
-    call_none(law, (t, q, qd, z, h_e, borrowed(cp[0]), tau_out, zdot_out, signals_out))
 
 
 @njit(cache=True, inline="always")
@@ -573,7 +532,7 @@ def core_address(name: str) -> int:
 def rk4_run(core, fn, pp, cparams, cfunctions, eparams, efunctions, dist, x, work, fset, iset, lim, q_lo,
             q_hi, out):
     """:func:`rk4_core` on these parameters (each tuple with its functions beside it,
-    :func:`crossing`): (status, rows written, step, joint)."""
+    ``armlab.control.entry.crossing``): (status, rows written, step, joint)."""
     cp = stack_address(with_functions(borrowed(cparams), cfunctions))
     ep = stack_address(with_functions(borrowed(eparams), efunctions))
     return call_status(core, borrowed((fn, pp, cp, ep, dist, x, work, fset, iset, lim, q_lo, q_hi, out)))

@@ -60,7 +60,7 @@ from numba import TypingError
 
 from armlab.caches import repaired
 from armlab.control.base import Controller, Environment, ProtocolError, Signal
-from armlab.control.entry import generated_entry
+from armlab.control.entry import crossing, generated_entry
 from armlab.control.function import arity, check_params, compile_problem, is_compiled
 from armlab.errors import SimulationDiverged, SimulationError, SimulationInterrupted
 from armlab.kernels.environment import FreeSpaceParams, free_space_law
@@ -450,7 +450,7 @@ def _run_rk4(setup, cparams, meta, on_divergence):
 
 def _rk4(setup, cparams, fset, iset, out):
     fn, pp, work = setup.workspace(cparams)
-    (cplain, cfunctions), (eplain, efunctions) = loop.crossing(cparams), loop.crossing(setup.eparams)
+    (cplain, cfunctions), (eplain, efunctions) = crossing(cparams), crossing(setup.eparams)
     return loop.rk4_run(loop.core_address("rk4"), fn, pp, cplain, cfunctions, eplain, efunctions, setup.dist,
                                setup.x0.copy(), work, fset, iset, setup.lim, setup.q_lo, setup.q_hi,
                                out)
@@ -461,7 +461,7 @@ def _run_adaptive(setup, cparams, meta, on_divergence, rtol, atol, integrator, m
         raise SimulationError(f"integrator: {integrator!r} is not one of {', '.join(SOLVERS)}")
     n, width = setup.n, setup.sig_width
     fn, pp, work = setup.workspace(cparams)
-    (cplain, cfunctions), (eplain, efunctions) = loop.crossing(cparams), loop.crossing(setup.eparams)
+    (cplain, cfunctions), (eplain, efunctions) = crossing(cparams), crossing(setup.eparams)
     rhs_core, log_core = loop.core_address("rhs"), loop.core_address("log")
     has_env = setup.environment is not None
     xdot = np.zeros_like(setup.x0)
