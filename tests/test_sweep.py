@@ -308,10 +308,55 @@ def test_resume_runs_only_missing_chunks_and_refuses_another_sweep(tmp_path):
     assert not frame(out).equals(reference)
 
 
+def chunks_written(out) -> int:
+    """Chunks held by the files of ``out`` (a file holds the consecutive chunks of a task)."""
+    from armlab.sweep.store import chunks_of
+
+    return sum(len(chunks_of(path.name) or ()) for path in (out / "runs").glob("part-*.parquet"))
+
+
+def test_a_file_holds_a_tasks_chunks_and_resume_reruns_only_missing_ones(tmp_path, monkeypatch):
+    """Tasks of several chunks are written as one file named by its first and last chunk;
+    a resumed sweep runs the chunks no file holds, in tasks that stop at a gap, and the table
+    is the one-chunk-a-task table, bit for bit."""
+    from armlab.sweep import runner
+    from armlab.sweep.store import chunks_of, part_name
+
+    assert part_name(range(5, 6)) == "part-000005.parquet"
+    assert part_name(range(5, 10)) == "part-000005-000009.parquet"
+    assert chunks_of("part-000005-000009.parquet") == range(5, 10)
+    assert chunks_of("part-000005.parquet") == range(5, 6)
+    assert chunks_of("part-000009-000005.parquet") is None and chunks_of("notes.txt") is None
+    queue = [9, 8, 6, 5, 4, 1]                       # pending, the next last
+    assert runner.next_task(queue, 2) == range(1, 2)  # a gap ends a task
+    assert runner.next_task(queue, 2) == range(4, 6)
+    assert runner.next_task(queue, 5) == range(6, 7)
+    assert runner.next_task(queue, 5) == range(8, 10) and queue == []
+
+    spec = small(tmp_path, "chunk_size = 1")
+    with monkeypatch.context() as patch:
+        patch.setattr(runner, "TASKS_PER_THREAD", spec.n_chunks)     # a chunk a task
+        reference = frame(sweep(spec, tmp_path / "one", threads=1).folder)
+    assert len(list((tmp_path / "one" / "runs").glob("part-*.parquet"))) == spec.n_chunks
+    out = tmp_path / "out"
+    sweep(spec, out, threads=1)
+    files = sorted(path.name for path in (out / "runs").glob("part-*.parquet"))
+    # One thread: two tasks of one chunk (no pace known yet), then half of the sweep's 6 chunks
+    # a task (TASKS_PER_THREAD), the last the one chunk left.
+    assert runner.TASKS_PER_THREAD == 2
+    assert files == ["part-000000.parquet", "part-000001.parquet", "part-000002-000004.parquet",
+                     "part-000005.parquet"], files
+    (out / "runs" / "part-000002-000004.parquet").unlink()
+    again = sweep(spec, out, threads=1)
+    assert again.counts == {"ok": 3, "resumed": 3}
+    assert chunks_written(out) == spec.n_chunks
+    pd.testing.assert_frame_equal(frame(out), reference, check_exact=True)
+
+
 def test_kill_9_of_the_driver_then_resume_runs_each_run_once(tmp_path):
     """A sweep process killed with SIGKILL mid-sweep leaves whole chunks; started again, it
     completes with every run exactly once and the table of an uninterrupted sweep."""
-    path = write(tmp_path, SMALL.format(extra="chunk_size = 1", t_final=0.4)
+    path = write(tmp_path, SMALL.format(extra="chunk_size = 1", t_final=10.0)
                  .replace("values = [5, 10, 20]", "linspace = [5, 20, 8]"))
     spec = load_sweep_file(path)
     out = tmp_path / "out"
@@ -320,12 +365,12 @@ def test_kill_9_of_the_driver_then_resume_runs_each_run_once(tmp_path):
                                 "--threads", "1", "--quiet"], env=env, stdout=subprocess.DEVNULL,
                                stderr=subprocess.DEVNULL)
     deadline = time.monotonic() + 240
-    while len(list((out / "runs").glob("part-*.parquet"))) < 2 and time.monotonic() < deadline:
+    while chunks_written(out) < 2 and time.monotonic() < deadline:
         assert process.poll() is None, "the sweep ended before it could be killed"
         time.sleep(0.02)
     process.send_signal(signal.SIGKILL)
     process.wait()
-    done = len(list((out / "runs").glob("part-*.parquet")))
+    done = chunks_written(out)
     assert 2 <= done < spec.n_chunks, "the kill did not land mid-sweep"
     resumed = sweep(spec, out, threads=2)
     assert resumed.counts["resumed"] == done

@@ -1,11 +1,12 @@
 """Running a sweep: chunks of runs on local threads or on a Dask cluster, rows to Parquet.
 
-A chunk (``SweepSpec.chunk_runs``) is the unit of work, of scheduling and of storage:
-:func:`run_chunk` is a pure function of (spec, chunk) — each run's values depend on the sweep
-and the run index only — so the table is the same, bit for bit, whichever executor, number of
-workers or order of completion produced it.  The driver keeps a bounded number of chunks in
-flight and writes each finished chunk at once (``armlab.sweep.store``): its memory does not
-grow with the number of runs.
+A chunk (``SweepSpec.chunk_runs``) is the smallest unit of work and of storage; a task runs
+some consecutive chunks as one batch (:func:`run_chunks`, as many as take about
+:data:`TASK_SECONDS`, :func:`batch_size`) and its rows are written as one file.  Each run's
+values depend on the sweep and the run index only, so the table is the same, bit for bit,
+whichever executor, number of workers, task sizes or order of completion produced it.  The
+driver keeps a bounded number of tasks in flight and writes each finished task at once
+(``armlab.sweep.store``): its memory does not grow with the number of runs.
 
 Executors:
 
@@ -16,10 +17,10 @@ Executors:
   releases the GIL, so the runs of different threads overlap; each run's set-up (reading its
   tables, the controller's parameters, the metrics) is Python and holds it.
 * Dask (``scheduler="tcp://host:8786"`` for a running cluster, or ``workers=N`` to start a
-  local cluster of N single-threaded worker processes): each chunk is a task.  A worker loads
-  the compiled loop and laws from numba's disk cache the first time it needs them and keeps
-  them for every later task.  A task lost with its worker is run again elsewhere by Dask; its
-  chunk is written once, by the driver, when a result arrives.
+  local cluster of N single-threaded worker processes).  A worker loads the compiled loop and
+  laws from numba's disk cache the first time it needs them and keeps them for every later
+  task.  A task lost with its worker is run again elsewhere by Dask; its chunks are written
+  once, by the driver, when a result arrives.
 """
 
 from __future__ import annotations
@@ -64,14 +65,22 @@ def run_one(spec: SweepSpec, index: int) -> dict:
 
 
 def run_chunk(spec: SweepSpec, chunk: int) -> dict[str, list]:
-    """The rows of chunk ``chunk`` as columns ``{name: [values]}`` (a Dask task)."""
+    """The rows of chunk ``chunk`` as columns ``{name: [values]}``."""
+    return run_chunks(spec, range(chunk, chunk + 1))
+
+
+def run_chunks(spec: SweepSpec, chunks: range) -> dict[str, list]:
+    """The rows of the consecutive ``chunks`` as columns ``{name: [values]}``, their runs set
+    up as one batch when they differ only in numbers (``armlab.sweep.rollout``; the same rows
+    as one by one: a batch's set-up costs ~2.4 ms whatever its size, 1000 1 s A7 runs 0.51 ms
+    a run in batches of 25, 0.42 ms in batches of 125)."""
     names = ("run", *spec.parameter_names, "status", "diagnosis", *METRIC_NAMES)
     columns = {name: [] for name in names}
     signals = []
-    # Runs that differ only in numbers run as one batch (armlab.sweep.rollout), the same rows.
-    rows = sweep_rows(spec, spec.chunk_runs(chunk))
+    runs = range(spec.chunk_runs(chunks[0]).start, spec.chunk_runs(chunks[-1]).stop)
+    rows = sweep_rows(spec, runs)
     if rows is None:
-        rows = [run_one(spec, index) for index in spec.chunk_runs(chunk)]
+        rows = [run_one(spec, index) for index in runs]
     for row in rows:
         for name in names:
             columns[name].append(row[name])
@@ -118,7 +127,7 @@ def _progress(total: int, initial: int, label: str, enabled: bool):
 
 
 def _local(spec, store, pending, threads, bar, processes=None) -> dict:
-    """Chunks on a local pool: ``processes`` worker processes (spawned, so each starts clean
+    """Tasks on a local pool: ``processes`` worker processes (spawned, so each starts clean
     and loads the compiled code from the disk cache once) if given, else ``threads`` threads."""
     import multiprocessing
     from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, ThreadPoolExecutor, wait
@@ -131,16 +140,19 @@ def _local(spec, store, pending, threads, bar, processes=None) -> dict:
         pool = ThreadPoolExecutor(max_workers=threads)
     with pool:
         queue, running = list(reversed(pending)), set()
+        seconds_per_chunk = None
         try:
             while queue or running:
                 while queue and len(running) < 2 * threads:
-                    chunk = queue.pop()
-                    future = pool.submit(run_chunk, spec, chunk)
-                    future.chunk = chunk
+                    chunks = next_task(queue, batch_size(len(pending), threads, seconds_per_chunk))
+                    future = pool.submit(run_task, spec, chunks)
+                    future.chunks = chunks
                     running.add(future)
                 done, running = wait(running, return_when=FIRST_COMPLETED)
                 for future in done:
-                    _store(store, future.chunk, future.result(), counts, bar)
+                    seconds, columns = future.result()
+                    seconds_per_chunk = seconds / len(future.chunks)
+                    _store(store, future.chunks, columns, counts, bar)
         except BaseException:
             for future in running:
                 future.cancel()
@@ -148,11 +160,28 @@ def _local(spec, store, pending, threads, bar, processes=None) -> dict:
     return counts
 
 
-def _store(store, chunk, columns, counts, bar):
-    store.write(chunk, columns, columns.pop(SIGNALS, None))
+def _store(store, chunks, columns, counts, bar):
+    store.write(chunks, columns, columns.pop(SIGNALS, None))
     for status in columns["status"]:
         counts[status] = counts.get(status, 0) + 1
     bar.update(len(columns["run"]))
+
+
+LOCAL_CLUSTER_CONFIG = {
+    # Without the workers' statistical profiler (a stack sample of the task's thread every
+    # 10 ms, for the dashboard's profile page): on runs whose set-up is Python it cost ~4 %
+    # of a 50 000-run sweep (24.2 s against 23.3 s on two workers, alternating).
+    "distributed.worker.profile.enabled": False,
+    # Without the fixed malloc trim threshold Dask gives its worker processes (64 kB, which
+    # returns freed memory to the system at once, and turns off glibc's adaptive thresholds):
+    # every run's arrays are then fresh pages from the system.  Ten chunks of 25 1 s A7 runs
+    # in one process, median of 15: 0.124-0.130 s without it, 0.137-0.147 s with it.  A
+    # sweep's memory is bounded by its tasks in flight, not by what malloc keeps.
+    "distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None,
+}
+"""The Dask settings of a local cluster a sweep starts (``workers=``); a cluster of your own
+runs as fast with the same (``dask.config.set`` before it starts, or the environment
+variables of ``docs/sweeps.md``)."""
 
 
 def _dask_client(scheduler, workers, source, from_file: bool):
@@ -183,10 +212,7 @@ def _dask_client(scheduler, workers, source, from_file: bool):
         raise SchedulerAddressError(reason) from None
     import dask
 
-    # Without the workers' statistical profiler (a stack sample of the task's thread every
-    # 10 ms, for the dashboard's profile page): on runs whose set-up is Python it cost ~4 %
-    # of a 50 000-run sweep (24.2 s against 23.3 s on two workers, alternating).
-    with dask.config.set({"distributed.worker.profile.enabled": False}):
+    with dask.config.set(LOCAL_CLUSTER_CONFIG):
         cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
                                dashboard_address=":0")
     return Client(cluster), cluster
@@ -210,20 +236,23 @@ def _quiet_shutdown():
 
 
 TASK_SECONDS = 0.25
-"""How long a Dask task should compute: each task costs the driver about 3.5 ms of CPU (client
-and scheduler, on the same cores as the workers when the cluster is local) and its worker a
-round trip, whatever its size, so a task runs as many consecutive chunks as fill about this
-time (1000 1 s A7 runs in 40 chunks on two workers: 0.24 s of driver CPU in 40 tasks of one
-chunk, 0.11 s in 8 tasks)."""
+"""How long a task should compute.  Whatever its size, a task costs a batch set-up (~2.4 ms),
+a Parquet file written by the driver (~2 ms) and on Dask about 3.5 ms of the driver's CPU
+(client and scheduler, on the same cores as the workers when the cluster is local) and a
+round trip, so a task runs as many consecutive chunks as fill about this time (1000 1 s A7
+runs in 40 chunks on two Dask workers: 0.24 s of driver CPU in 40 tasks of one chunk, 0.11 s
+in 8 tasks)."""
 
 
-TASKS_PER_THREAD = 4
+TASKS_PER_THREAD = 2
 """And no task runs more than an even share of the sweep among this many tasks per worker
-thread: the last tasks end close together, and an interrupted sweep loses little work."""
+thread: the last tasks end close together, and an interrupted sweep loses at most that share.
+(Two rather than four: 1000 1 s A7 runs on two running Dask workers, 0.35-0.38 s against
+0.41-0.42 s, the tasks' fixed costs paid half as often.)"""
 
 
 def batch_size(chunks: int, threads: int, seconds_per_chunk: float | None) -> int:
-    """How many consecutive chunks of a sweep of ``chunks`` the next Dask task runs: one while
+    """How many consecutive chunks of a sweep of ``chunks`` the next task runs: one while
     no chunk has been timed, then as many as take :data:`TASK_SECONDS`, at most
     1/(:data:`TASKS_PER_THREAD` × ``threads``) of the sweep."""
     if seconds_per_chunk is None:
@@ -233,12 +262,21 @@ def batch_size(chunks: int, threads: int, seconds_per_chunk: float | None) -> in
     return max(1, min(by_time, share))
 
 
-def run_chunks(spec: SweepSpec, chunks: list[int]) -> tuple[float, list[tuple[int, dict]]]:
-    """(seconds computing, [(chunk, :func:`run_chunk`'s columns)]) of consecutive chunks (a
-    Dask task)."""
+def next_task(queue: list[int], size: int) -> range:
+    """Up to ``size`` consecutive chunks taken from the end of ``queue`` (pending chunks in
+    descending order: the next is last); a gap left by a resumed sweep ends a task."""
+    first = last = queue.pop()
+    while last - first + 1 < size and queue and queue[-1] == last + 1:
+        last = queue.pop()
+    return range(first, last + 1)
+
+
+def run_task(spec: SweepSpec, chunks: range) -> tuple[float, dict]:
+    """(seconds computing, :func:`run_chunks`'s columns): a task, on a thread, a process or a
+    Dask worker."""
     start = time.perf_counter()
-    results = [(chunk, run_chunk(spec, chunk)) for chunk in chunks]
-    return time.perf_counter() - start, results
+    columns = run_chunks(spec, chunks)
+    return time.perf_counter() - start, columns
 
 
 def _dask(spec, store, pending, client, bar) -> dict:
@@ -253,23 +291,24 @@ def _dask(spec, store, pending, client, bar) -> dict:
     queue = list(reversed(pending))
     fingerprint = spec.fingerprint()
     seconds_per_chunk = None
+    future_chunks = {}
 
     def submit():
-        size = min(len(queue), batch_size(len(pending), threads, seconds_per_chunk))
-        batch = [queue.pop() for _ in range(size)]
-        return client.submit(run_chunks, spec, batch, pure=False,
-                             key=f"armlab-sweep-{fingerprint}-{batch[0]}-{time.time_ns()}")
+        chunks = next_task(queue, batch_size(len(pending), threads, seconds_per_chunk))
+        future = client.submit(run_task, spec, chunks, pure=False,
+                               key=f"armlab-sweep-{fingerprint}-{chunks[0]}-{time.time_ns()}")
+        future_chunks[future.key] = chunks
+        return future
 
     # Two tasks a worker thread in flight: a worker finds its next task waiting.
     stream = as_completed([submit() for _ in range(min(2 * threads, len(queue)))])
     for future in stream:
-        seconds, results = future.result()
+        seconds, columns = future.result()
+        chunks = future_chunks.pop(future.key)
         # The latest task's pace sizes the next (a worker's first task, which loads the
         # compiled code, only makes the next few smaller).
-        seconds_per_chunk = seconds / len(results)
-        # Each result names its chunks: nothing to remember per task.
-        for chunk, columns in results:
-            _store(store, chunk, columns, counts, bar)
+        seconds_per_chunk = seconds / len(chunks)
+        _store(store, chunks, columns, counts, bar)
         future.release()
         if queue:
             stream.add(submit())

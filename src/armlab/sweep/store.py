@@ -1,15 +1,17 @@
-"""A sweep's output folder: a Parquet dataset written one chunk at a time, resumable.
+"""A sweep's output folder: a Parquet dataset written one task at a time, resumable.
 
 Layout of ``DIR``::
 
-    manifest.json            what the sweep is (its fingerprint, runs, chunks, columns)
-    runs/part-000000.parquet  the rows of chunk 0 (runs 0 … chunk_size − 1), one row per run
-    runs/part-000001.parquet  …
+    manifest.json                    what the sweep is (its fingerprint, runs, chunks, columns)
+    runs/part-000000.parquet         the rows of chunk 0 (runs 0 … chunk_size − 1), one row per run
+    runs/part-000001-000004.parquet  the rows of chunks 1 to 4, written together (one task)
+    …
 
-A chunk file is written under a temporary name and renamed (``os.replace``, atomic on one
-file system), so a chunk file that exists is complete; a sweep interrupted at any moment
-(Ctrl-C, kill -9, a lost machine) leaves only whole chunks and maybe a temporary file, which
-the next start deletes.  Resuming runs exactly the chunks without a file, so every run is in
+A file holds the consecutive chunks of one task (its name: the first and, for more than one,
+the last chunk).  It is written under a temporary name and renamed (``os.replace``, atomic on
+one file system), so a file that exists is complete; a sweep interrupted at any moment
+(Ctrl-C, kill -9, a lost machine) leaves only whole files and maybe a temporary file, which
+the next start deletes.  Resuming runs exactly the chunks no file holds, so every run is in
 exactly one file.  The manifest's fingerprint (``SweepSpec.fingerprint``) must match: the
 folder of another sweep, or of the same file since edited, is refused rather than mixed.
 
@@ -28,7 +30,7 @@ from armlab.errors import SweepStoreError
 from armlab.sweep.metrics import METRICS
 
 FORMAT = 1
-_PART = re.compile(r"^part-(\d{6,})\.parquet$")
+_PART = re.compile(r"^part-(\d{6,})(?:-(\d{6,}))?\.parquet$")
 
 
 def _pyarrow():
@@ -99,24 +101,23 @@ class SweepStore:
             raise SweepStoreError(f"{self.folder}: cannot be used ({error.strerror or error})") from None
 
     def completed(self) -> set[int]:
+        """The chunks whose rows a file holds."""
         done = set()
         for path in self.runs.iterdir():
-            match = _PART.match(path.name)
-            if match and int(match.group(1)) < self.spec.n_chunks:
-                done.add(int(match.group(1)))
+            chunks = chunks_of(path.name)
+            if chunks and chunks.stop <= self.spec.n_chunks:
+                done.update(chunks)
         return done
 
-    def part(self, chunk: int) -> Path:
-        return self.runs / f"part-{chunk:06d}.parquet"
-
-    def write(self, chunk: int, columns: dict[str, list], signals: dict | None = None) -> None:
-        """Write chunk ``chunk``'s rows (``{column: values}``) as one Parquet file, atomically;
-        its decimated ``signals`` (``{column: array}``) first, into ``signals/``: the rows'
-        file is what marks the chunk complete."""
+    def write(self, chunks: range, columns: dict[str, list], signals: dict | None = None) -> None:
+        """Write the rows (``{column: values}``) of the consecutive ``chunks`` as one Parquet
+        file, atomically; their decimated ``signals`` (``{column: array}``) first, into
+        ``signals/``: the rows' file is what marks the chunks complete."""
         pa, _ = _pyarrow()
+        name = part_name(chunks)
         if signals is not None:
-            self._write_parquet(pa.table(signals), self.folder / "signals" / f"part-{chunk:06d}.parquet")
-        self._write_parquet(pa.Table.from_pydict(columns, schema=self.schema), self.part(chunk))
+            self._write_parquet(pa.table(signals), self.folder / "signals" / name)
+        self._write_parquet(pa.Table.from_pydict(columns, schema=self.schema), self.runs / name)
 
     def _write_parquet(self, table, target: Path) -> None:
         _, pq = _pyarrow()
@@ -136,6 +137,23 @@ class SweepStore:
     def read(self):
         """Every written row as one ``pyarrow.Table``, sorted by run."""
         return read_results(self.folder)
+
+
+def part_name(chunks: range) -> str:
+    """The file name of the consecutive ``chunks``: ``part-000005.parquet`` for one,
+    ``part-000005-000009.parquet`` for chunks 5 to 9."""
+    last = f"-{chunks[-1]:06d}" if len(chunks) > 1 else ""
+    return f"part-{chunks[0]:06d}{last}.parquet"
+
+
+def chunks_of(name: str) -> range | None:
+    """The chunks the file ``name`` holds (the inverse of :func:`part_name`), or None."""
+    match = _PART.match(name)
+    if match is None:
+        return None
+    first = int(match.group(1))
+    last = int(match.group(2)) if match.group(2) else first
+    return range(first, last + 1) if last >= first else None
 
 
 def read_signals(folder, runs=None):
