@@ -145,14 +145,12 @@ def _local(spec, store, pending, threads, bar, processes=None) -> dict:
             while queue or running:
                 while queue and len(running) < 2 * threads:
                     chunks = next_task(queue, batch_size(len(pending), threads, seconds_per_chunk))
-                    future = pool.submit(run_task, spec, chunks)
-                    future.chunks = chunks
-                    running.add(future)
+                    running.add(pool.submit(run_task, spec, chunks))
                 done, running = wait(running, return_when=FIRST_COMPLETED)
                 for future in done:
-                    seconds, columns = future.result()
-                    seconds_per_chunk = seconds / len(future.chunks)
-                    _store(store, future.chunks, columns, counts, bar)
+                    chunks, seconds, columns = future.result()
+                    seconds_per_chunk = seconds / len(chunks)
+                    _store(store, chunks, columns, counts, bar)
         except BaseException:
             for future in running:
                 future.cancel()
@@ -271,12 +269,13 @@ def next_task(queue: list[int], size: int) -> range:
     return range(first, last + 1)
 
 
-def run_task(spec: SweepSpec, chunks: range) -> tuple[float, dict]:
-    """(seconds computing, :func:`run_chunks`'s columns): a task, on a thread, a process or a
-    Dask worker."""
+def run_task(spec: SweepSpec, chunks: range) -> tuple[range, float, dict]:
+    """(``chunks``, seconds computing, :func:`run_chunks`'s columns): a task, on a thread, a
+    process or a Dask worker; the result names its chunks, so the driver remembers nothing
+    per task."""
     start = time.perf_counter()
     columns = run_chunks(spec, chunks)
-    return time.perf_counter() - start, columns
+    return chunks, time.perf_counter() - start, columns
 
 
 def _dask(spec, store, pending, client, bar) -> dict:
@@ -291,20 +290,16 @@ def _dask(spec, store, pending, client, bar) -> dict:
     queue = list(reversed(pending))
     fingerprint = spec.fingerprint()
     seconds_per_chunk = None
-    future_chunks = {}
 
     def submit():
         chunks = next_task(queue, batch_size(len(pending), threads, seconds_per_chunk))
-        future = client.submit(run_task, spec, chunks, pure=False,
-                               key=f"armlab-sweep-{fingerprint}-{chunks[0]}-{time.time_ns()}")
-        future_chunks[future.key] = chunks
-        return future
+        return client.submit(run_task, spec, chunks, pure=False,
+                             key=f"armlab-sweep-{fingerprint}-{chunks[0]}-{time.time_ns()}")
 
     # Two tasks a worker thread in flight: a worker finds its next task waiting.
     stream = as_completed([submit() for _ in range(min(2 * threads, len(queue)))])
     for future in stream:
-        seconds, columns = future.result()
-        chunks = future_chunks.pop(future.key)
+        chunks, seconds, columns = future.result()
         # The latest task's pace sizes the next (a worker's first task, which loads the
         # compiled code, only makes the next few smaller).
         seconds_per_chunk = seconds / len(chunks)
