@@ -5,6 +5,7 @@ import inspect
 import re
 import sys
 from dataclasses import dataclass
+from pathlib import Path
 from typing import NamedTuple
 
 import numpy as np
@@ -174,3 +175,51 @@ def test_a_named_tuple_and_its_plain_tuple_share_numba_layout(item):
     assert named.get_value_type() == plain.get_value_type()
     assert named.get_data_type() == plain.get_data_type()
     assert named.get_argument_type() == plain.get_argument_type()
+
+
+GAIN = 31.0625      # a value no other number of the run takes
+
+
+def _holds_gain(value, depth=0) -> bool:
+    """Whether ``value`` is, or holds within three levels of lists, tuples and dicts, a number
+    or a float array equal to GAIN (the gain in every form it takes: number, list, matrix)."""
+    if isinstance(value, np.ndarray):
+        return value.dtype.kind == "f" and value.size < 100 and bool(np.any(value == GAIN))
+    if isinstance(value, (float, int)) and not isinstance(value, bool):
+        return value == GAIN
+    if depth >= 3:
+        return False
+    if isinstance(value, dict):
+        value = list(value.values())
+    if isinstance(value, (list, tuple)):
+        return any(_holds_gain(item, depth + 1) for item in value[:50])
+    return False
+
+
+def test_a_scenario_gain_reaches_its_law_through_five_files(tmp_path):
+    """The files of the functions that receive a scenario file's gain as an argument, in any
+    form, on its way to the compiled law: the file reader, the gain's matrix, the law ABI and
+    the loop (the controller's class, whose dataclass __init__ and compiled law the trace does
+    not see, is the fifth); the step check reads the gains beside that walk."""
+    text = load_scenario("a6_pd_desired").source
+    path = tmp_path / "gain.toml"
+    path.write_text(Path(text).read_text().replace("kp = [25, 0.5, 10]", f"kp = [{GAIN}, 0.5, 10]"))
+    files = set()
+
+    def trace(frame, event, arg):
+        name = frame.f_code.co_filename
+        if event == "call" and "armlab" in name and "tests" not in name:
+            if any(_holds_gain(value) for value in list(frame.f_locals.values())):
+                files.add(Path(name).parts[-2] + "/" + Path(name).name)
+        return None
+
+    from armlab.scenarios import load_scenario_file
+
+    sys.settrace(trace)
+    try:
+        load_scenario_file(path).run(t_final=0.01)
+    finally:
+        sys.settrace(None)
+    assert {"scenarios/tables.py", "control/entry.py", "simulation/loop.py"} <= files     # seen at all
+    assert files <= {"scenarios/tables.py", "control/gains.py", "control/entry.py", "simulation/loop.py",
+                     "simulation/step_check.py"}, sorted(files)

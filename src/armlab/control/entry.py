@@ -22,7 +22,9 @@ be imported by name (made inside a function, typed into an interpreter or a note
 entry: the loop then calls it through its address (:func:`law_trampoline`),
 with the same results.
 
-The parameters cross from Python into the loop's shared functions as plain tuples
+What a law's parameters may hold (arrays, numbers, compiled functions and tuples of those)
+is checked in Python, in one line (:func:`check_params`), before numba sees them.  The
+parameters cross from Python into the loop's shared functions as plain tuples
 (:func:`plain_params`: why, in ``armlab.simulation.loop``), with each compiled function in them
 taken out and passed beside its tuple (:func:`crossing`), to be put back in compiled code
 (``armlab.kernels.boundary.with_functions``).
@@ -37,8 +39,9 @@ import threading
 from pathlib import Path
 
 import numpy as np
-from numba import njit, types
+from numba import njit, typeof, types
 
+from armlab.errors import ProtocolError
 from armlab.kernels.boundary import borrowed, buffer_view, call_none
 from armlab.specialise.closed_form import generated_module
 
@@ -98,6 +101,61 @@ def crossing(params) -> tuple[tuple, tuple]:
         return None
 
     return strip(params), tuple(functions)
+
+
+def check_params(params, what: str = "params") -> None:
+    """The compiled loop takes ``params`` as a tuple (or NamedTuple) of arrays, numbers,
+    compiled functions (numba's ``cfunc``, first-class function values) and such tuples; a
+    list, a dict or another object is refused here in one line (numba's own typing error is
+    forty)."""
+    if not isinstance(params, tuple):
+        hint = " (write tuple(...) or a NamedTuple)" if isinstance(params, list) else ""
+        raise ProtocolError(f"{what}: a {type(params).__name__}, but a law's params must be a tuple "
+                            f"or NamedTuple of arrays and numbers{hint}")
+    names = getattr(params, "_fields", None) or [str(i) for i in range(len(params))]
+    for name, value in zip(names, params, strict=True):
+        if isinstance(value, tuple):
+            check_params(value, f"{what}.{name}")
+        elif isinstance(value, np.ndarray):
+            if value.dtype.hasobject:
+                raise ProtocolError(f"{what}.{name}: an array of Python objects; use a numeric array")
+        elif not (isinstance(value, (bool, int, float, np.number, np.bool_)) or _compiled_function(value)):
+            raise ProtocolError(f"{what}.{name}: a {type(value).__name__}; params hold arrays, numbers, "
+                                "compiled functions (cfunc) and tuples of those")
+
+
+_FUNCTION_CLASSES: set = set()     # Python classes whose values numba types as functions
+
+
+def _compiled_function(value) -> bool:
+    """Whether numba takes ``value`` as a first-class function (a ``cfunc``), its class
+    remembered (``typeof`` costs ~5 µs of a short run's set-up)."""
+    if type(value) in _FUNCTION_CLASSES:
+        return True
+    try:
+        function = isinstance(typeof(value), types.FunctionType)
+    except ValueError:      # typeof: no numba type
+        return False
+    if function:
+        _FUNCTION_CLASSES.add(type(value))
+    return function
+
+
+_NUMBA_REASONS = ("No implementation of function", "Unknown attribute", "Cannot unify", "Invalid use of",
+                  "non-precise type", "Untyped global name", "Cannot determine Numba type",
+                  "NameError", "has no attribute", "Cannot type")
+
+
+def compile_problem(name: str, error: Exception) -> str:
+    """One line saying why numba could not compile the law of controller class ``name``: the
+    first line of its typing error that names a reason, with the law's source line."""
+    lines = [line.strip() for line in str(error).splitlines() if line.strip()]
+    named = [line for line in lines if any(key in line for key in _NUMBA_REASONS)]
+    reason = named[0] if named else (lines[-1] if lines else "")
+    where = next((line for line in lines if line.startswith("File ")), "")
+    where = f" ({where})" if where else ""
+    return (f"{name}.law does not compile for its params: {reason}{where}; a law reads arrays, numbers "
+            "and tuples of those, and writes into tau_out, zdot_out and signals_out")
 
 
 _TEMPLATE = '''\

@@ -1,8 +1,10 @@
-"""A scenario file's tables read into objects, each key as the annotation of its field says.
+"""A scenario file read into objects, each key as the annotation of its field says.
 
-:func:`build` turns a table such as ``[controller]`` into an instance of the class its
-``type`` names among the registered subclasses of a base (``armlab.registry``).  Each other
-key is the field of that name, read by the field's annotation (``typing.get_type_hints``):
+:func:`scenario_from_table` reads a whole file (its top-level keys, ``[simulation]`` and
+the tables below) into a :class:`~armlab.scenarios.scenario.Scenario`.  :func:`build` turns
+a table such as ``[controller]`` into an instance of the class its ``type`` names among the
+registered subclasses of a base (``armlab.registry``).  Each other key is the field of that
+name, read by the field's annotation (``typing.get_type_hints``):
 
 ============================  ===========================================================
 annotation                    what the file writes
@@ -38,14 +40,20 @@ import functools
 import types
 import typing
 from pathlib import Path
+from typing import Annotated, Literal
 
 import numpy as np
 
+from armlab.control.base import Controller, Environment
 from armlab.errors import ArmlabError, ScenarioFileError
+from armlab.inputs import read_input_toml
 from armlab.model.robot import Robot, nonfinite_part
 from armlab.model.toml_io import MAX_MAGNITUDE, evaluate_expression
 from armlab.registry import ScenarioType, declared, load_declared_modules, scenario_types
+from armlab.scenarios.scenario import Scenario
+from armlab.simulation.disturbances import TorqueDisturbance
 from armlab.spatial import euler_matrix
+from armlab.specialise import DYNAMICS_CHOICES
 
 MAX_NESTING = 4
 """Deepest nesting of arrays a field may have (poses are arrays of arrays: 2)."""
@@ -353,3 +361,103 @@ def construct(declaration: ScenarioType, arguments: dict, file, where: str):
     except (ArmlabError, TypeError, ValueError, ArithmeticError) as error:
         raise ScenarioFileError(file, where, str(error)) from None
     return built
+
+
+# --------------------------------------------------------------------------- the whole file
+
+_POSITIVE = Condition("positive", lambda value: value > 0)
+_Positive = Annotated[float, _POSITIVE]
+SIMULATION_FIELDS = {
+    "t_final": _Positive, "dt": _Positive, "q0": np.ndarray, "qd0": np.ndarray,
+    "method": Literal["rk4", "adaptive"], "control_period": _Positive,
+    "torque_limit": Annotated[np.ndarray, _POSITIVE], "log_every": Annotated[int, _POSITIVE],
+    "limit_margin": Annotated[float, Condition("≥ 0", lambda value: value >= 0)],
+    "max_kinetic_energy": _Positive, "rtol": _Positive, "atol": _Positive,
+    "dynamics": Literal[DYNAMICS_CHOICES], "joint_limits": Literal["ignore", "warn", "stop"],
+    "max_steps": Annotated[int, _POSITIVE],
+}
+"""The ``[simulation]`` keys (keyword arguments of ``armlab.simulate``), read as annotated."""
+SIMULATION_KEYS = set(SIMULATION_FIELDS)
+PER_JOINT = ("q0", "qd0", "torque_limit")
+"""Simulation keys holding a number (every joint) or one number per joint."""
+TOP_KEYS = {"title", "assignment", "description", "plant", "plant_link_mass", "plant_tip", "simulation",
+            "controller", "disturbance", "environment", "expect"}
+
+def read_scenario_toml(path: Path) -> dict:
+    """The parsed TOML of a scenario file (a regular file of at most
+    ``armlab.inputs.TOML_LIMIT`` bytes); unreadable or malformed files raise one line."""
+    return read_input_toml(path, ScenarioFileError)
+
+
+def _settings(simulation, path, n: int) -> dict:
+    """The checked ``[simulation]`` keyword arguments of ``armlab.simulate`` for a plant of
+    ``n`` joints: each key read by its annotation in :data:`SIMULATION_FIELDS`, per-joint
+    values of length 1 or n, and dt ≤ control_period ≤ t_final."""
+    if not isinstance(simulation, dict):
+        raise ScenarioFileError(path, "simulation", "expected a table")
+    settings = {}
+    for key, value in simulation.items():
+        if key not in SIMULATION_FIELDS:
+            raise ScenarioFileError(path, f"simulation.{key}",
+                                    f"unknown key (use {', '.join(sorted(SIMULATION_KEYS))})")
+        settings[key] = read(SIMULATION_FIELDS[key], value, path, f"simulation.{key}")
+        if key in PER_JOINT and np.ndim(settings[key]) > 0 and np.shape(settings[key]) != (n,):
+            raise ScenarioFileError(path, f"simulation.{key}", f"expected a number or {n} numbers "
+                                    f"(one per joint), got shape {np.shape(settings[key])}")
+    for key in ("t_final", "dt", "q0"):
+        if key not in settings:
+            raise ScenarioFileError(path, f"simulation.{key}", "missing")
+    t_final, dt = settings["t_final"], settings["dt"]
+    if dt > t_final:
+        raise ScenarioFileError(path, "simulation.dt", f"{dt:g} s is longer than t_final = {t_final:g} s")
+    period = settings.get("control_period")
+    if period is not None and not dt <= period <= t_final:
+        raise ScenarioFileError(path, "simulation.control_period", f"{period:g} s must lie between "
+                                f"dt = {dt:g} s and t_final = {t_final:g} s")
+    return settings
+
+
+def _disturbance(terms, plant: Robot, path) -> tuple:
+    """The ``[[disturbance]]`` terms, checked against the plant's joints."""
+    if not isinstance(terms, list):
+        raise ScenarioFileError(path, "disturbance", "expected an array of tables [[disturbance]]")
+    disturbance = tuple(build(TorqueDisturbance, term, path, f"disturbance[{i}]")
+                        for i, term in enumerate(terms))
+    for i, term in enumerate(disturbance):
+        try:
+            term.encode(plant.n)
+        except ArmlabError as error:
+            raise ScenarioFileError(path, f"disturbance[{i}]", str(error)) from None
+    return disturbance
+
+
+def scenario_from_table(data: dict, path, *, allow_outside: bool = False) -> Scenario:
+    """The scenario the parsed TOML ``data`` describes; ``path`` names it in messages and
+    anchors relative robot files (a sweep builds each run's scenario from edited tables).
+    Robot files must lie under the folder of ``path`` unless ``allow_outside``."""
+    path = Path(path)
+    if not isinstance(data, dict):
+        raise ScenarioFileError(path, "file", "expected a table")
+    unknown = set(data) - TOP_KEYS
+    if unknown:
+        raise ScenarioFileError(path, sorted(unknown)[0], f"unknown key (use {', '.join(sorted(TOP_KEYS))})")
+    for key in ("plant", "simulation", "controller"):
+        if key not in data:
+            raise ScenarioFileError(path, key, "missing")
+    plant = robot(data["plant"], data.get("plant_link_mass", {}), path, "plant", data.get("plant_tip"),
+                  allow_outside)
+    settings = _settings(data["simulation"], path, plant.n)
+    controller = build(Controller, data["controller"], path, "controller", plant=data["plant"],
+                       plant_tip=data.get("plant_tip"), allow_outside=allow_outside)
+    disturbance = _disturbance(data.get("disturbance", []), plant, path)
+    environment = None
+    if "environment" in data:
+        environment = build(Environment, data["environment"], path, "environment")
+    texts = {key: read(str, data.get(key, default), path, key)
+             for key, default in (("title", path.stem), ("assignment", ""), ("description", ""))}
+    expect = "ok"
+    if "expect" in data:
+        expect = read(typing.get_type_hints(Scenario)["expect"], data["expect"], path, "expect")
+    return Scenario(name=path.stem, **texts, expect=expect, plant=plant, controller=controller,
+                    disturbance=disturbance, simulation=settings, source=str(path),
+                    environment=environment)

@@ -12,6 +12,10 @@ that unboxes its parameters (``rk4_run`` …), and the plant's dynamics can be a
 the signature of ``armlab.kernels.plant.forward_dynamics_packed`` (the general one, or a
 robot's closed form).
 
+:func:`bind` makes the arguments of one run from the simulator's checked inputs: the
+addresses, the scratch memory and the parameters as they cross; the simulator hands the
+controller's parameters to the loop without reading them.
+
 A module-level law is called through its generated entry (``armlab.control.entry``): the law
 compiled inlined into a function that receives the loop's scratch array and three sizes
 instead of seven arrays and the parameter tuple by value (1.3–1.5 times faster A6–A8 runs).
@@ -84,9 +88,18 @@ read is never hoisted out of the loop; it costs one load and compare per step.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit, typeof, types
+from numba import TypingError, njit, typeof, types
 
-from armlab.control.entry import law_entry_types, law_trampoline, law_views, plain_params
+from armlab.control.entry import (
+    check_params,
+    compile_problem,
+    crossing,
+    law_entry_types,
+    law_trampoline,
+    law_views,
+    plain_params,
+)
+from armlab.errors import ProtocolError
 from armlab.kernels.boundary import (
     borrowed,
     buffer_view,
@@ -216,6 +229,32 @@ def addresses(law, env_law, cparams, eparams, forward_dynamics=None, kinetic_ene
         fn = _FN[key] = _addresses(law, env_law, cparams, eparams, forward_dynamics, kinetic_energy,
                                    entry, bool(has_env), bool(has_dist))
     return fn
+
+
+def bind(setup, cparams=None, eparams=None):
+    """``(fn, work, (cplain, cfunctions), (eplain, efunctions))``: what the loop's entries take
+    for one run of ``setup`` (the checked inputs of ``armlab.simulate``) besides its model and
+    settings: the addresses (:func:`addresses`), fresh scratch memory (:func:`work_size`) and
+    the controller's and the environment's parameters as they cross (``crossing`` of
+    ``armlab.control.entry``).  ``cparams`` and ``eparams`` default to the controller's
+    ``params()`` and the environment's; a batch passes its thread's own copies.  Parameters
+    the compiled loop cannot take, or a law that does not compile for them, raise a
+    :class:`~armlab.errors.ProtocolError` of one line."""
+    name = type(setup.controller).__name__
+    if setup.python_law is not None:
+        raise ProtocolError(f"{name}.law: a Python law runs with simulate; simulate_batch needs it "
+                            "compiled (numba.njit)")
+    cparams = setup.controller.params() if cparams is None else cparams
+    eparams = setup.eparams if eparams is None else eparams
+    check_params(cparams, f"{name}.params()")
+    try:
+        fn = addresses(setup.law, setup.env_law, cparams, setup.eparams, setup.forward_dynamics,
+                       setup.kinetic_energy, setup.entry, has_env=setup.environment is not None,
+                       has_dist=bool(setup.dist[0] > 0))
+    except TypingError as error:
+        raise ProtocolError(compile_problem(name, error)) from None
+    work = np.zeros(work_size(setup.n, setup.k, setup.sig_width))
+    return fn, work, crossing(cparams), crossing(eparams)
 
 
 def compile_shared() -> None:

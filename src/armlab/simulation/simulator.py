@@ -56,12 +56,11 @@ import os
 import time
 
 import numpy as np
-from numba import TypingError
 
 from armlab.caches import repaired
 from armlab.control.base import Controller, Environment, ProtocolError, Signal
-from armlab.control.entry import crossing, generated_entry
-from armlab.control.function import arity, check_params, compile_problem, is_compiled
+from armlab.control.entry import generated_entry
+from armlab.control.function import arity, is_compiled
 from armlab.errors import SimulationDiverged, SimulationError, SimulationInterrupted
 from armlab.kernels.environment import FreeSpaceParams, free_space_law
 from armlab.kernels.plant import make_data
@@ -207,23 +206,6 @@ class _Setup:
         self.layout = loop.log_layout([s.width for s in self.signals],
                                              cmd=bool(np.any(np.isfinite(self.lim))),
                                              dist=self.dist[0] > 0, h_e=environment is not None)
-
-    def workspace(self, cparams):
-        """(fn, pp, work) of one run: the loop's addresses, the plant's model (``Robot.packed``)
-        and the loop's scratch memory (the plant's data in it)."""
-        if self.python_law is not None:
-            raise ProtocolError(f"{type(self.controller).__name__}.law: a Python law runs with "
-                                "simulate; simulate_batch needs it compiled (numba.njit)")
-        check_params(cparams, f"{type(self.controller).__name__}.params()")
-        try:
-            fn = loop.addresses(self.law, self.env_law, cparams, self.eparams,
-                                self.forward_dynamics, self.kinetic_energy, self.entry,
-                                has_env=self.environment is not None,
-                                has_dist=bool(self.dist[0] > 0))
-        except TypingError as error:
-            raise ProtocolError(compile_problem(type(self.controller).__name__, error)) from None
-        work = np.zeros(loop.work_size(self.n, self.k, self.sig_width))
-        return fn, self.plant.packed, work
 
     def outputs(self, rows=None):
         """The flat log of ``rows`` rows (``loop.log_views`` gives its blocks).  Every
@@ -419,17 +401,18 @@ def simulate(plant, controller, *, q0, qd0=None, t_final, dt, method="rk4", cont
     if method == "rk4" and not setup.sampled:
         check_step(plant, controller, setup.x0[:setup.n], setup.dt, stacklevel=_user_stacklevel())
     if setup.python_law is not None:
-        return _run_python(setup, controller.params(), meta, on_divergence, method, rtol, atol, integrator)
+        return _run_python(setup, meta, on_divergence, method, rtol, atol, integrator)
     if method == "rk4":
-        return repaired(lambda: _run_rk4(setup, controller.params(), meta, on_divergence))
+        return repaired(lambda: _run_rk4(setup, meta, on_divergence))
     if max_steps is None:
         max_steps = max(ADAPTIVE_MIN_STEPS, ADAPTIVE_STEPS_PER_SECOND * setup.n_steps * setup.dt)
-    return repaired(lambda: _run_adaptive(setup, controller.params(), meta, on_divergence, rtol, atol,
-                                          integrator, int(max_steps)))
+    return repaired(lambda: _run_adaptive(setup, meta, on_divergence, rtol, atol, integrator,
+                                          int(max_steps)))
 
 
-def _run_python(setup, cparams, meta, on_divergence, method, rtol, atol, integrator):
-    status, rows, step, joint, views, wall = python_loop.run(setup, setup.python_law, cparams,
+def _run_python(setup, meta, on_divergence, method, rtol, atol, integrator):
+    status, rows, step, joint, views, wall = python_loop.run(setup, setup.python_law,
+                                                             setup.controller.params(),
                                                              (setup.plant.packed, make_data(setup.n)), method,
                                                              rtol=rtol, atol=atol, integrator=integrator)
     meta = {**(meta or {}), "wall_time": wall, "law": "python"}
@@ -437,31 +420,30 @@ def _run_python(setup, cparams, meta, on_divergence, method, rtol, atol, integra
     return _finish(setup, result, status, step, joint, on_divergence)
 
 
-def _run_rk4(setup, cparams, meta, on_divergence):
+def _run_rk4(setup, meta, on_divergence):
     fset, iset = setup.settings()
     out = setup.outputs()
     start = time.perf_counter()
-    status, rows, step, joint = run_interruptible(lambda: _rk4(setup, cparams, fset, iset, out), fset,
+    status, rows, step, joint = run_interruptible(lambda: _rk4(setup, fset, iset, out), fset,
                                                   joint_steps=setup.n_steps * setup.n)
     meta = {**(meta or {}), "wall_time": time.perf_counter() - start}
     result = setup.result(setup.views(out), rows, "rk4", meta)
     return _finish(setup, result, status, step, joint, on_divergence)
 
 
-def _rk4(setup, cparams, fset, iset, out):
-    fn, pp, work = setup.workspace(cparams)
-    (cplain, cfunctions), (eplain, efunctions) = crossing(cparams), crossing(setup.eparams)
-    return loop.rk4_run(loop.core_address("rk4"), fn, pp, cplain, cfunctions, eplain, efunctions, setup.dist,
-                               setup.x0.copy(), work, fset, iset, setup.lim, setup.q_lo, setup.q_hi,
-                               out)
+def _rk4(setup, fset, iset, out):
+    fn, work, (cplain, cfunctions), (eplain, efunctions) = loop.bind(setup)
+    return loop.rk4_run(loop.core_address("rk4"), fn, setup.plant.packed, cplain, cfunctions, eplain,
+                        efunctions, setup.dist, setup.x0.copy(), work, fset, iset, setup.lim, setup.q_lo,
+                        setup.q_hi, out)
 
 
-def _run_adaptive(setup, cparams, meta, on_divergence, rtol, atol, integrator, max_steps):
+def _run_adaptive(setup, meta, on_divergence, rtol, atol, integrator, max_steps):
     if integrator not in SOLVERS:
         raise SimulationError(f"integrator: {integrator!r} is not one of {', '.join(SOLVERS)}")
     n, width = setup.n, setup.sig_width
-    fn, pp, work = setup.workspace(cparams)
-    (cplain, cfunctions), (eplain, efunctions) = crossing(cparams), crossing(setup.eparams)
+    fn, work, (cplain, cfunctions), (eplain, efunctions) = loop.bind(setup)
+    pp = setup.plant.packed
     rhs_core, log_core = loop.core_address("rhs"), loop.core_address("log")
     has_env = setup.environment is not None
     xdot = np.zeros_like(setup.x0)
@@ -562,7 +544,7 @@ def simulate_batch(plant, controllers, *, q0, qd0=None, t_final, dt, torque_limi
         setup = first if index == 0 else setup_of(controllers[index])
         fset, iset = setup.settings()
         out = setup.outputs()
-        status, rows, step, joint = _rk4(setup, setup.controller.params(), fset, iset, out)
+        status, rows, step, joint = _rk4(setup, fset, iset, out)
         return _finish(setup, setup.result(setup.views(out), rows, "rk4", meta), status, step, joint,
                        "return")
 

@@ -145,7 +145,6 @@ def _run_part(plan: BatchPlan, runs: list[int], keep_results: bool) -> tuple:
     """(statuses, diagnoses, {metric: (len(runs),)}, results or Nones) of ``runs``, checked and
     run on this thread's own copies of the inputs; the runs that end ok are measured together
     from their logs."""
-    from armlab.control.entry import crossing
     from armlab.simulation import loop
 
     setup, inputs = plan.setup, plan.inputs
@@ -155,8 +154,7 @@ def _run_part(plan: BatchPlan, runs: list[int], keep_results: bool) -> tuple:
                "x0": inputs["x0"].copy(), "lim": inputs["lim"].copy(), "dist": inputs["dist"].copy()}
     bases = {"controller": inputs["controller"].base, "environment": inputs["environment"].base,
              **{name: inputs[name] for name in ("plant", "x0", "lim", "dist")}}
-    fn, _, work = setup.workspace(cparams)
-    (cparams, cfunctions), (eparams, efunctions) = crossing(cparams), crossing(eparams)
+    fn, work, (cparams, cfunctions), (eparams, efunctions) = loop.bind(setup, cparams, eparams)
     core = loop.core_address("rk4")
     fset, iset = setup.settings()
     size = setup.outputs().size
