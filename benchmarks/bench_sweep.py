@@ -22,7 +22,8 @@ each run, every run measured and written to Parquet as ``armlab sweep`` does.
 * **A7**: :data:`A7_RUNS` runs of the A7 via-point tracking shortened to 1 s, ω_n drawn per run
   (:data:`A7_SWEEP`), on one thread, a thread per core and Dask — a cluster the sweep starts,
   and a running cluster whose workers have run the sweep's code once (target ≥ 0.9 per core);
-  best of :data:`A7_REPEATS` but for the new cluster.
+  best of :data:`A7_REPEATS` but for the new cluster.  Beside it, without a target
+  (:func:`a7_context`): one running worker, and :data:`A7_LONG_RUNS` runs on a worker per core.
 
 Per core: rate / (cores × one-thread rate); target ≥ 0.9 on every executor.  The driver's
 memory: its resident set sampled while the sweep runs, at 10 % and at 100 % of the runs;
@@ -67,6 +68,7 @@ MEMORY_RUNS = int(os.environ.get("ARMLAB_BENCH_MEMORY_RUNS", 1_000_000))
 MEMORY_CHUNK = 2000
 A7_RUNS = int(os.environ.get("ARMLAB_BENCH_A7_RUNS", 1000))
 A7_REPEATS = int(os.environ.get("ARMLAB_BENCH_A7_REPEATS", 3))
+A7_LONG_RUNS = 10 * A7_RUNS
 A7_SWEEP = """
 title = "benchmark: A7 via-point tracking of 1 s, random natural frequency"
 scenario = "a7_id_via_points"
@@ -323,6 +325,40 @@ def a7_case(folder, cores: int) -> list[tuple[str, float, float]]:
     return rows
 
 
+def a7_context(folder, cores: int, one_thread: float) -> list[tuple[str, int, float, float]]:
+    """Where the Dask figure of :func:`a7_case` loses, beside it (no target of their own):
+    [(executor, workers, steady runs/s, the one-thread steady rate it is compared with)].
+
+    * one running worker, which leaves a core to the driver, the scheduler and the nannies, as
+      the one-thread sweep leaves one to its driver thread (``one_thread``: a7_case's rate);
+    * :data:`A7_LONG_RUNS` runs (ten times as many) on one thread and on a running cluster of a
+      worker per core: the costs a sweep pays once (its client, its first and last tasks)
+      weigh a tenth as much."""
+    import dask
+    from distributed import LocalCluster
+
+    from armlab.sweep import sweep
+    from armlab.sweep.runner import LOCAL_CLUSTER_CONFIG
+
+    warm = spec_of(folder, 2 * cores, chunk=1, name="a7-warm", text=A7_SWEEP)
+    spec = spec_of(folder, A7_RUNS, chunk=max(1, A7_RUNS // 40), name="a7", text=A7_SWEEP)
+    long = spec_of(folder, A7_LONG_RUNS, chunk=max(1, A7_LONG_RUNS // 40), name="a7-long", text=A7_SWEEP)
+    long_one = timed(long, folder, threads=1)[1]
+    rows = []
+    for workers, sweeps in ((1, [spec]), (cores, [long])):
+        with dask.config.set(LOCAL_CLUSTER_CONFIG), \
+                LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                             dashboard_address=None) as cluster:
+            sweep(warm, Path(folder) / f"a7-warm-context-{workers}", scheduler=cluster.scheduler_address)
+            for run in sweeps:
+                best = max(timed(run, folder, scheduler=cluster.scheduler_address)[1]
+                           for _ in range(A7_REPEATS if run is spec else 2))
+                rows.append((f"Dask, {workers} running worker{'s' * (workers > 1)}, {run.n_runs} runs",
+                             workers, best, one_thread if run is spec else long_one))
+    rows.insert(1, (f"1 thread, {A7_LONG_RUNS} runs", 1, long_one, long_one))
+    return rows
+
+
 def memory_case(folder, cores: int):
     """(wall seconds, :class:`Memory`) of :data:`MEMORY_RUNS` runs of the A6 sweep on a thread
     per core (what ``armlab sweep`` picks for it), in chunks of :data:`MEMORY_CHUNK`: the
@@ -355,6 +391,7 @@ def main():
             rows.append((name, RUNS, seconds, RUNS / seconds, steady, memory))
         rollout_rows = time_rollout(spec, cores)
         a7_rows = a7_case(folder, cores)
+        a7_context_rows = a7_context(folder, cores, a7_rows[0][2]) if dask_available() else []
         million_seconds, million = memory_case(folder, cores)
         mujoco_rows = []
         if mujoco_available():
@@ -411,6 +448,11 @@ def main():
                                           f"{'met' if per_core >= TARGET else 'NOT met'}")
         print(f"  {name:<22}{seconds:>6.2f} s wall, steady {steady:>6.0f} runs/s, "
               f"{per_core:.3f} per core{target}")
+    if a7_context_rows:
+        print("  where Dask loses (no target): a core left for the driver, or ten times the runs")
+    for name, workers, steady, one in a7_context_rows:
+        print(f"  {name:<44} steady {steady:>6.0f} runs/s, {steady / workers / one:.3f} per core "
+              f"(against one thread's {one:.0f} runs/s)")
 
 
 if __name__ == "__main__":
