@@ -11,7 +11,7 @@ import pytest
 import armlab
 from armlab.control.joint_space import JointInverseDynamics, JointPDGravity
 from armlab.references.joint import Constant
-from armlab.simulation.step_check import StepSizeWarning, check_step, rk4_largest_step
+from armlab.simulation.step_check import StepSizeWarning, check_step, inertia_at, rk4_largest_step
 
 LINK = armlab.load_robot("link1")   # I = 0.1 kg·m² about the axis, F_v = 0.05 N·m·s/rad
 
@@ -77,3 +77,15 @@ def test_the_seed_scenarios_pass_without_a_step_warning():
         with warnings.catch_warnings():
             warnings.simplefilter("error", StepSizeWarning)
             scenario.run(t_final=0.1)
+
+
+@pytest.mark.parametrize("name", ["prp", "puma560"])
+def test_the_mass_matrix_from_the_kinetic_energy_is_the_crba_one(name):
+    """inertia_at (B by polarisation of T = ½ q̇ᵀBq̇, with the loop's energy kernel) against
+    armlab.inertia_matrix (the CRBA), at random configurations."""
+    robot = armlab.load_robot(name)
+    rng = np.random.default_rng(3)
+    for _ in range(10):
+        q = rng.uniform(-1.0, 1.0, robot.n) * 0.3
+        B = armlab.inertia_matrix(robot, q)
+        assert np.abs(inertia_at(robot, q) - B).max() <= 1e-12 * np.abs(B).max()

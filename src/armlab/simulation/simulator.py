@@ -399,7 +399,8 @@ def simulate(plant, controller, *, q0, qd0=None, t_final, dt, method="rk4", cont
             isinstance(max_steps, (int, np.integer)) and max_steps >= 1)):
         raise SimulationError(f"max_steps: must be a positive integer, got {max_steps!r}")
     if method == "rk4" and not setup.sampled:
-        check_step(plant, controller, setup.x0[:setup.n], setup.dt, stacklevel=_user_stacklevel())
+        check_step(plant, controller, setup.x0[:setup.n], setup.dt, stacklevel=_user_stacklevel(),
+                   kinetic_energy=setup.kinetic_energy)
     if setup.python_law is not None:
         return _run_python(setup, meta, on_divergence, method, rtol, atol, integrator)
     if method == "rk4":

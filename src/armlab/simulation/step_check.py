@@ -31,34 +31,53 @@ class StepSizeWarning(UserWarning):
     """An RK4 step larger than the closed loop's fastest mode allows (S6)."""
 
 
+def inertia_at(robot, q: np.ndarray, kinetic_energy=None) -> np.ndarray:
+    """B(q) (n × n) from the kinetic energy T(q, q̇) = ½ q̇ᵀ B(q) q̇ (D6) by polarisation:
+    B_ii = 2 T(q, e_i), B_ij = T(q, e_i + e_j) − T(q, e_i) − T(q, e_j).
+
+    With ``kinetic_energy`` (default: the general ``kinetic_energy_packed``), the kernel the
+    loop calls for its energy check anyway: the step check compiles nothing of its own (the
+    mass matrix's kernel, compiled for it alone, took ~3 s of a first A7 result with empty
+    caches)."""
+    from armlab.kernels.plant import kinetic_energy_packed, make_data
+
+    energy = kinetic_energy_packed if kinetic_energy is None else kinetic_energy
+    n, model, data = robot.n, robot.packed, make_data(robot.n)
+    q, unit = np.ascontiguousarray(q, dtype=float), np.eye(n)
+    half = [energy(model, data, q, unit[i]) for i in range(n)]
+    B = np.diag(2.0 * np.array(half))
+    for i in range(n):
+        for j in range(i + 1, n):
+            B[i, j] = B[j, i] = energy(model, data, q, unit[i] + unit[j]) - half[i] - half[j]
+    return B
+
+
 def loop_gains(controller, q0: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
     """(K, D) (n × n) of (S6) for the joint-space laws, None for any other law."""
     from armlab.control.adaptive import SlotineLi
     from armlab.control.joint_space import JointInverseDynamics, JointPDGravity
-    from armlab.dynamics import inertia_matrix
 
     if type(controller) is JointPDGravity:
         return np.asarray(controller.kp, float), np.asarray(controller.kd, float)
     if type(controller) is JointInverseDynamics:
-        B_hat = inertia_matrix(controller.model, q0)
+        B_hat = inertia_at(controller.model, q0)
         bias = controller.bias_model if controller.bias_model is not None else controller.model
         cancelled = np.diag(np.asarray(bias.arrays.viscous, dtype=float))   # F̂_v q̇ of n̂
         return (B_hat @ np.asarray(controller.kp, float),
                 B_hat @ np.asarray(controller.kd, float) - cancelled)
     if type(controller) is SlotineLi:
-        B_hat = inertia_matrix(controller.model, q0)
+        B_hat = inertia_at(controller.model, q0)
         kd, lam = np.asarray(controller.kd, float), np.asarray(controller.lam, float)
         viscous = np.diag(np.asarray(controller.model.arrays.viscous, dtype=float))  # F̂_v q̇_r of Ŷπ̂(0)
         return (kd + viscous) @ lam, kd + B_hat @ lam
     return None
 
 
-def modes(plant, K: np.ndarray, D: np.ndarray, q0: np.ndarray) -> np.ndarray:
-    """The eigenvalues λ [1/s] of (S6) at q0, (2n,)."""
-    from armlab.dynamics import inertia_matrix
-
+def modes(plant, K: np.ndarray, D: np.ndarray, q0: np.ndarray, kinetic_energy=None) -> np.ndarray:
+    """The eigenvalues λ [1/s] of (S6) at q0, (2n,); ``kinetic_energy`` the plant's kernel
+    (:func:`inertia_at`)."""
     n = plant.n
-    B = inertia_matrix(plant, q0)
+    B = inertia_at(plant, q0, kinetic_energy)
     viscous = np.diag(np.asarray(plant.arrays.viscous, dtype=float))
     A = np.block([[np.zeros((n, n)), np.eye(n)],
                   [-np.linalg.solve(B, K), -np.linalg.solve(B, viscous + D)]])
@@ -96,14 +115,16 @@ def rk4_largest_step(eigenvalues: np.ndarray) -> float:
     return float(np.min(lo / size[limited]))
 
 
-def check_step(plant, controller, q0, dt: float, stacklevel: int = 2) -> float | None:
+def check_step(plant, controller, q0, dt: float, stacklevel: int = 2,
+               kinetic_energy=None) -> float | None:
     """Warn when ``dt`` exceeds the largest stable RK4 step of (S6) at ``q0``; returns that
-    step [s] (None for a law not estimated here, or when |λ| dt ≤ 1 for every mode)."""
+    step [s] (None for a law not estimated here, or when |λ| dt ≤ 1 for every mode).
+    ``kinetic_energy``: the plant's kernel, as the loop runs it (:func:`inertia_at`)."""
     q0 = np.asarray(q0, dtype=float)
     gains = loop_gains(controller, q0)
     if gains is None:
         return None
-    eigenvalues = modes(plant, *gains, q0)
+    eigenvalues = modes(plant, *gains, q0, kinetic_energy)
     if np.abs(eigenvalues).max() * dt <= 1.0:
         return None  # inside the half-disc |λh| ≤ 1 of Re ≤ 0, which RK4's region holds
     largest = rk4_largest_step(eigenvalues)
