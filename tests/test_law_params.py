@@ -200,7 +200,9 @@ def test_a_scenario_gain_reaches_its_law_through_five_files(tmp_path):
     """The files of the functions that receive a scenario file's gain as an argument, in any
     form, on its way to the compiled law: the file reader, the gain's matrix, the law ABI and
     the loop (the controller's class, whose dataclass __init__ and compiled law the trace does
-    not see, is the fifth); the step check reads the gains beside that walk."""
+    not see, is the fifth); the step check reads the gains beside that walk.  The trace sees
+    the arguments of the calls in this thread (a run this short stays in it), not an object's
+    fields read inside a function."""
     text = load_scenario("a6_pd_desired").source
     path = tmp_path / "gain.toml"
     path.write_text(Path(text).read_text().replace("kp = [25, 0.5, 10]", f"kp = [{GAIN}, 0.5, 10]"))
@@ -215,11 +217,12 @@ def test_a_scenario_gain_reaches_its_law_through_five_files(tmp_path):
 
     from armlab.scenarios import load_scenario_file
 
+    previous = sys.gettrace()
     sys.settrace(trace)
     try:
         load_scenario_file(path).run(t_final=0.01)
     finally:
-        sys.settrace(None)
+        sys.settrace(previous)
     assert {"scenarios/tables.py", "control/entry.py", "simulation/loop.py"} <= files     # seen at all
     assert files <= {"scenarios/tables.py", "control/gains.py", "control/entry.py", "simulation/loop.py",
                      "simulation/step_check.py"}, sorted(files)

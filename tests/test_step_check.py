@@ -89,3 +89,14 @@ def test_the_mass_matrix_from_the_kinetic_energy_is_the_crba_one(name):
         q = rng.uniform(-1.0, 1.0, robot.n) * 0.3
         B = armlab.inertia_matrix(robot, q)
         assert np.abs(inertia_at(robot, q) - B).max() <= 1e-12 * np.abs(B).max()
+
+
+def test_the_mass_matrix_from_a_robots_generated_energy_kernel_is_the_crba_one():
+    """The same with the PRP's generated kernel, which the simulator passes for its plant."""
+    from armlab.specialise import plant_kernels
+
+    robot = armlab.load_robot("prp")
+    _, _, kinetic_energy = plant_kernels(robot, "closed_form")
+    for q in ([0.1, 0.3, -0.05], [-0.1, -1.2, 0.2]):
+        B = armlab.inertia_matrix(robot, np.array(q))
+        assert np.abs(inertia_at(robot, q, kinetic_energy) - B).max() <= 1e-12 * np.abs(B).max()

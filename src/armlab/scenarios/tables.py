@@ -383,6 +383,7 @@ PER_JOINT = ("q0", "qd0", "torque_limit")
 TOP_KEYS = {"title", "assignment", "description", "plant", "plant_link_mass", "plant_tip", "simulation",
             "controller", "disturbance", "environment", "expect"}
 
+
 def read_scenario_toml(path: Path) -> dict:
     """The parsed TOML of a scenario file (a regular file of at most
     ``armlab.inputs.TOML_LIMIT`` bytes); unreadable or malformed files raise one line."""

@@ -13,8 +13,8 @@ the signature of ``armlab.kernels.plant.forward_dynamics_packed`` (the general o
 robot's closed form).
 
 :func:`bind` makes the arguments of one run from the simulator's checked inputs: the
-addresses, the scratch memory and the parameters as they cross; the simulator hands the
-controller's parameters to the loop without reading them.
+addresses, the scratch memory and the parameters as they cross, asking the controller for
+its own: the simulator never touches them.
 
 A module-level law is called through its generated entry (``armlab.control.entry``): the law
 compiled inlined into a function that receives the loop's scratch array and three sizes
@@ -248,7 +248,7 @@ def bind(setup, cparams=None, eparams=None):
     eparams = setup.eparams if eparams is None else eparams
     check_params(cparams, f"{name}.params()")
     try:
-        fn = addresses(setup.law, setup.env_law, cparams, setup.eparams, setup.forward_dynamics,
+        fn = addresses(setup.law, setup.env_law, cparams, eparams, setup.forward_dynamics,
                        setup.kinetic_energy, setup.entry, has_env=setup.environment is not None,
                        has_dist=bool(setup.dist[0] > 0))
     except TypingError as error:

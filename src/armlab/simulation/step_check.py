@@ -36,9 +36,10 @@ def inertia_at(robot, q: np.ndarray, kinetic_energy=None) -> np.ndarray:
     B_ii = 2 T(q, e_i), B_ij = T(q, e_i + e_j) − T(q, e_i) − T(q, e_j).
 
     With ``kinetic_energy`` (default: the general ``kinetic_energy_packed``), the kernel the
-    loop calls for its energy check anyway: the step check compiles nothing of its own (the
+    loop calls for its energy check anyway, the step check compiles nothing of its own (the
     mass matrix's kernel, compiled for it alone, took ~3 s of a first A7 result with empty
-    caches)."""
+    caches).  A robot-specialised kernel (``armlab.specialise``) holds its robot's numbers
+    and ignores ``robot.packed``: pass one only with the robot it was made for."""
     from armlab.kernels.plant import kinetic_energy_packed, make_data
 
     energy = kinetic_energy_packed if kinetic_energy is None else kinetic_energy
@@ -119,7 +120,8 @@ def check_step(plant, controller, q0, dt: float, stacklevel: int = 2,
                kinetic_energy=None) -> float | None:
     """Warn when ``dt`` exceeds the largest stable RK4 step of (S6) at ``q0``; returns that
     step [s] (None for a law not estimated here, or when |λ| dt ≤ 1 for every mode).
-    ``kinetic_energy``: the plant's kernel, as the loop runs it (:func:`inertia_at`)."""
+    ``kinetic_energy``: the plant's own kernel, as the loop runs it (:func:`inertia_at`); the
+    controller's model, which may differ from the plant, always takes the general one."""
     q0 = np.asarray(q0, dtype=float)
     gains = loop_gains(controller, q0)
     if gains is None:
