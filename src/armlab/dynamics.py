@@ -52,9 +52,9 @@ from armlab.kernels.dynamics import FASTMATH, coriolis_matrix_into, mass_matrix_
 from armlab.kernels.energy import potential_energy_kernel
 from armlab.kernels.plant import (
     forward_dynamics_packed,
-    inverse_dynamics_packed,
     kinetic_energy_packed,
     make_data,
+    rnea_packed,
     unpack_plant,
 )
 from armlab.model.robot import Robot
@@ -135,11 +135,13 @@ def _thread_scratch(robot: Robot) -> _Scratch:
 # CRBA, whose call the inertia matrix of a small arm would feel.
 
 def _free_motion_entry(model, data, q, qd, qdd, tau_out):
-    """The common call, with gravity and without a wrench (also g(q) = τ(q, 0, 0))."""
-    n = int(model[0])
+    """The common call, with gravity and without a wrench (also g(q) = τ(q, 0, 0)): the
+    plant's ``rnea_packed`` with the workspace's zero wrench (skipped at run time), the one
+    compiled RNEA that also serves the simulation's plant and a law's model."""
+    n, m, ws = unpack_plant(model, data)
     if q.shape[0] != n or qd.shape[0] != n or qdd.shape[0] != n:
         return 1
-    inverse_dynamics_packed(model, data, q, qd, qdd, tau_out)
+    rnea_packed(model, data, q, qd, qdd, ws.no_wrench, tau_out)
     return 0
 
 

@@ -40,7 +40,7 @@ def dynamics_kernels(robots: list[Robot], closed_forms: bool = True) -> None:
     from armlab import dynamics
     from armlab.kernels import dynamics as kernels
     from armlab.kernels.boundary import kernel_address
-    from armlab.kernels.plant import forward_dynamics_packed, inverse_dynamics_packed, kinetic_energy_packed
+    from armlab.kernels.plant import forward_dynamics_packed, kinetic_energy_packed
     from armlab.specialise import ClosedFormUnavailable, closed_form_module
 
     for robot in robots if closed_forms else ():
@@ -57,7 +57,6 @@ def dynamics_kernels(robots: list[Robot], closed_forms: bool = True) -> None:
     kernels.gravity_into(m, ws, q, out)
     kernels.bias_into(m, ws, q, qd, h_e, out)
     kernels.mass_matrix_into(m, ws, q, np.zeros((n, n)))
-    kernel_address(inverse_dynamics_packed, (_VEC,) * 6, types.none)
     kernel_address(forward_dynamics_packed, (_VEC,) * 7, types.int64)
     kernel_address(kinetic_energy_packed, (_VEC,) * 4, types.float64)
 

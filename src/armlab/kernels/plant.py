@@ -15,7 +15,8 @@ allocation):
 Kernels (all arrays float64, C-contiguous; (n,) unless stated):
 
     rnea_packed(model, data, q, qd, qdd, h_e, tau_out)          τ of (D1) with gravity and h_e
-    inverse_dynamics_packed(model, data, q, qd, qdd, tau_out)   τ of (D1) with gravity, h_e = 0
+                                            (an all-zero h_e, the workspace's ``no_wrench``,
+                                            skips the wrench at run time)
     forward_dynamics_packed(model, data, q, qd, tau, h_e, qdd_out) -> 0 | 1 wrong length |
                                                                       2 B not PD
     kinetic_energy_packed(model, data, q, qd) -> T [J] (NaN for a wrong length)
@@ -78,14 +79,6 @@ def rnea_packed(model, data, q, qd, qdd, h_e, tau_out):
     noise)."""
     n, m, ws = unpack_plant(model, data)
     rnea_inline(m, ws, q, qd, qdd, 1.0, h_e, tau_out)
-
-
-@kernel
-def inverse_dynamics_packed(model, data, q, qd, qdd, tau_out):
-    """τ = B q̈ + C q̇ + F_v q̇ + F_s sgn q̇ + g (D1, h_e = 0) by the RNEA; lengths unchecked
-    (compiled callers pass n-vectors)."""
-    n, m, ws = unpack_plant(model, data)
-    rnea_inline(m, ws, q, qd, qdd, 1.0, None, tau_out)
 
 
 # (model, data, q, qd, qdd, tau_out) -> None: a model's inverse dynamics as a law calls it

@@ -427,8 +427,8 @@ def numeric_inverse_dynamics():
     """The RNEA's τ of (D1) with h_e = 0 as a compiled function of ``INVERSE_DYNAMICS``
     (compiled, or loaded from numba's cache, on first use).  It calls the plant's own
     ``rnea_packed`` with the workspace's zero wrench (skipped at run time), so a numeric run
-    compiles one RNEA for plant and controller: the wrench-free ``inverse_dynamics_packed``
-    would be a second (~4 s with empty caches)."""
+    compiles one RNEA for plant and controller (a wrench-free RNEA would be a second, ~4 s
+    with empty caches), and ``armlab.inverse_dynamics`` calls the same."""
     return cfunc(INVERSE_DYNAMICS, cache=True)(_numeric_inverse_dynamics)
 
 
