@@ -18,7 +18,7 @@ from armlab.kernels.boundary import (
     with_functions,
 )
 from armlab.kernels.plant import forward_dynamics_packed, kinetic_energy_packed, make_data
-from armlab.simulation import loop
+from armlab.simulation import loop, loop_memory
 
 VEC = types.float64[::1]
 
@@ -90,7 +90,7 @@ def test_a_parameter_tuple_crosses_as_a_stack_address():
 
 @njit(cache=False)
 def _scratch_extent(work, n, k, s):
-    views = loop.scratch_views(work, n, k, s)
+    views = loop_memory.scratch_views(work, n, k, s)
     loops_last, plant, zdot = views[-2], views[-1], views[8]
     start = (plant.ctypes.data - work.ctypes.data) // 8
     return ((loops_last.ctypes.data - work.ctypes.data) // 8 + loops_last.size, start,
@@ -99,17 +99,17 @@ def _scratch_extent(work, n, k, s):
 
 @pytest.mark.parametrize("n, k, s", [(1, 0, 0), (3, 12, 7), (6, 2, 30)])
 def test_the_scratch_views_fill_the_scratch_array_exactly(n, k, s):
-    work = np.zeros(loop.work_size(n, k, s))
+    work = np.zeros(loop_memory.work_size(n, k, s))
     loops_end, plant_start, end, zdot_start = _scratch_extent(work, n, k, s)
     assert loops_end == plant_start                      # the plant's data follows, no overlap
     assert end == work.size
-    assert zdot_start == loop.zdot_slice(n, k).start   # where the adaptive path reads ż
+    assert zdot_start == loop_memory.zdot_slice(n, k).start   # where the adaptive path reads ż
 
 
 @pytest.mark.parametrize("flags, extra", [((1, 1, 1), [3, 3, 6]), ((0, 0, 0), [0, 0, 0]),
                                           ((1, 0, 1), [3, 0, 6])])
 def test_the_log_columns_cover_what_a_row_writes(flags, extra):
-    columns = loop.log_columns(3, 2, loop.log_layout([2, 3], *flags))
+    columns = loop_memory.log_columns(3, 2, loop_memory.log_layout([2, 3], *flags))
     widths = [c.stop - c.start for c in columns.values()]
     assert widths == [1, 3, 3, 3, 3, 2, 5] + extra
     assert list(columns.values())[0].start == 0

@@ -64,7 +64,7 @@ from armlab.control.function import arity, is_compiled
 from armlab.errors import SimulationDiverged, SimulationError, SimulationInterrupted
 from armlab.kernels.environment import FreeSpaceParams, free_space_law
 from armlab.kernels.plant import make_data
-from armlab.simulation import loop, python_loop
+from armlab.simulation import loop, loop_memory, python_loop
 from armlab.simulation.disturbances import encode_disturbances
 from armlab.simulation.joint_limits import _user_stacklevel, annotate, check_mode, joint_stop
 from armlab.simulation.results import SimulationResult
@@ -203,16 +203,16 @@ class _Setup:
         self.entry = None if self.python_law is not None else generated_entry(self.law)
         self.env_law = _compiled(self.env_law, f"{type(environment).__name__}.law")
         self.rows = self.n_steps // self.log_every + 1
-        self.layout = loop.log_layout([s.width for s in self.signals],
+        self.layout = loop_memory.log_layout([s.width for s in self.signals],
                                              cmd=bool(np.any(np.isfinite(self.lim))),
                                              dist=self.dist[0] > 0, h_e=environment is not None)
 
     def outputs(self, rows=None):
-        """The flat log of ``rows`` rows (``loop.log_views`` gives its blocks).  Every
+        """The flat log of ``rows`` rows (``loop_memory.log_views`` gives its blocks).  Every
         row the loop reports is written in full, so it need not be zeroed.  A log larger than
         :data:`MAX_LOG_BYTES` is refused with the size it would need."""
         rows = self.rows if rows is None else rows
-        columns = loop.log_columns(self.n, self.k, self.layout)["h_e"].stop
+        columns = loop_memory.log_columns(self.n, self.k, self.layout)["h_e"].stop
         size = rows * columns * 8
         if size > MAX_LOG_BYTES:
             raise SimulationError(f"log_every: the log of {rows} rows × {columns} columns would need "
@@ -223,7 +223,7 @@ class _Setup:
         return np.empty(rows * columns)
 
     def views(self, out):
-        return loop.log_views(out, self.n, self.k, self.layout)
+        return loop_memory.log_views(out, self.n, self.k, self.layout)
 
     def settings(self):
         fset = np.array([0.0, self.dt, self.ke_max, 0.0])  # [3]: the stop flag (Ctrl-C)
@@ -475,7 +475,7 @@ def _run_adaptive(setup, meta, on_divergence, rtol, atol, integrator, max_steps)
                     x[2 * n:] += setup.every * setup.dt * zdot_held
                 loop.rhs(rhs_core, fn, grid[first], x, pp, cplain, cfunctions, eplain, efunctions, setup.dist,
                                 has_env, True, 0.0, setup.lim, work, width, xdot)
-                zdot_held = work[loop.zdot_slice(n, setup.k)].copy()
+                zdot_held = work[loop_memory.zdot_slice(n, setup.k)].copy()
             args = (not setup.sampled, 0.0 if setup.sampled else 1.0)
             xs, solved, used = solve_stepwise(rhs, grid[first], grid[last], x, integrator, rtol, atol,
                                       grid[first:last + 1], args, steps_left)

@@ -296,12 +296,12 @@ def _measure_logs(plan, logs, limits) -> dict:
     """{metric: (N,)} of whole, finite runs from their flat logs (N, size), as ``measure`` of
     each run's result would give them (``armlab.sweep.metrics.measure_alike``; a metric the
     runs have no signal for is left out: NaN)."""
-    from armlab.simulation import loop
+    from armlab.simulation import loop_memory
     from armlab.sweep.metrics import measure_alike
 
     setup = plan.setup
     R = setup.rows
-    columns = loop.log_columns(setup.n, setup.k, setup.layout)
+    columns = loop_memory.log_columns(setup.n, setup.k, setup.layout)
 
     def block(start, width):
         return np.ascontiguousarray(logs[:, R * start:R * (start + width)].reshape(logs.shape[0], R, width))
