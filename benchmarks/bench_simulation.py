@@ -20,6 +20,27 @@ each), 3 of the Python loop over Pinocchio (a third of a second each); the sweep
 time.  Targets (issue 14): armlab ≤ 2× the hand-written loop and ≥ 100× faster than the
 Pinocchio loop for the PRP, ≥ 30× for the Puma.
 
+Where the A7 run's time goes (Linux ``perf`` sampling of 600 runs on a 2-core AMD EPYC at
+armlab 07e3c3f: 5.3 ms a run, the hand-written loop 1.87 ms; 40 000 right-hand sides):
+
+* the law's generated entry, 1.6 ms (~40 ns a call): the reference, the PD sum, the four
+  signals and the read of its parameter tuple (15 arrays) from the loop's stack;
+* ``sin``/``cos``, 1.3 ms: the law's model and the plant each take them of q₂ on every
+  right-hand side (the hand loop shares one pair between its B, C, g and its control law);
+* the RK4 loop itself, 1.1 ms, of which logging 28 values a step (q, q̇, q̈, τ, τ_cmd, the law's
+  four signals) is 0.4 ms — the hand loop logs q;
+* the plant's generated forward dynamics 0.7 ms, the law's generated inverse dynamics 0.55 ms;
+* ``simulate``'s set-up and result in Python, 0.4 ms (the RK4 step check 0.13 ms).
+
+Tried and measured on the same machine (best of 30–40 runs, alternating): the law calling its model's
+inverse dynamics in numba's own convention instead of through a ``cfunc``'s C wrapper, no
+faster (5.42 against 5.27–5.60 ms); the law's parameters without ``borrowed`` in its entry,
+7.1 ms; the model's generated kernel as a dispatcher the law calls directly, 4.34 ms, but then
+the law compiles per robot and misses numba's disk cache in every new process.  The code at
+77b07e2 (SymPy's closed forms, shorter than the traced ones of ``armlab.specialise``, and no
+step check) ran 4.55 ms there, 2.43× the hand loop and 91× the Pinocchio loop (this code: 5.20 ms,
+2.77× and 80× in ``make bench``), and the Puma560's run in 15.1 ms, 32× (this code: 17.3 ms, 28×).
+
 Run: ``python benchmarks/bench_simulation.py`` or ``make bench``.
 """
 
