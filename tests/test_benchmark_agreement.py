@@ -18,6 +18,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
 
 import agreement  # noqa: E402
 import bench_dynamics  # noqa: E402
+import bench_python_laws  # noqa: E402
 import bench_report  # noqa: E402
 import bench_simulation  # noqa: E402
 import bench_startup  # noqa: E402
@@ -56,6 +57,10 @@ def test_simulated_prp_sides_agree_with_armlab():
     differences = bench_simulation.check_prp(t_final=0.2)
     assert set(differences) == {bench_simulation.ARMLAB, bench_simulation.NUMERIC, bench_simulation.PINOCCHIO,
                                 bench_simulation.HAND}
+
+
+def test_a_small_law_runs_the_same_called_or_inlined():
+    bench_python_laws.check_inlined(t_final=0.05)
 
 
 def test_simulated_puma_sides_agree_with_armlab():
