@@ -100,3 +100,25 @@ def test_the_mass_matrix_from_a_robots_generated_energy_kernel_is_the_crba_one()
     for q in ([0.1, 0.3, -0.05], [-0.1, -1.2, 0.2]):
         B = armlab.inertia_matrix(robot, np.array(q))
         assert np.abs(inertia_at(robot, q, kinetic_energy) - B).max() <= 1e-12 * np.abs(B).max()
+
+
+def test_the_norm_bound_shortcut_gives_the_eigenvalues_answer():
+    """check_step returns None at once when the largest row sum of |A| times dt is at most 1
+    (every |λ| is below it); otherwise it takes the eigenvalues as before.  Across gains from
+    far below to far above the boundary its answer is the one the eigenvalues alone give, and
+    both branches are taken."""
+    from armlab.simulation.step_check import loop_gains, system_matrix
+
+    prp = armlab.load_robot("prp")
+    q0, dt = np.array([0.1, 0.4, 0.05]), 1e-3
+    branches = set()
+    for omega in np.geomspace(1.0, 3000.0, 25):
+        controller = JointInverseDynamics.from_poles(prp, Constant(q0), omega)
+        A = system_matrix(prp, *loop_gains(controller, q0), q0)
+        eigenvalues = np.linalg.eigvals(A)
+        expected = None if np.abs(eigenvalues).max() * dt <= 1.0 else rk4_largest_step(eigenvalues)
+        branches.add((np.abs(A).sum(axis=1).max() * dt <= 1.0, expected is None))
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", StepSizeWarning)
+            assert check_step(prp, controller, q0, dt) == expected
+    assert branches == {(True, True), (False, True), (False, False)}

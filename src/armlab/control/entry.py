@@ -121,7 +121,7 @@ def check_params(params, what: str = "params") -> None:
         elif isinstance(value, np.ndarray):
             if value.dtype.hasobject:
                 raise ProtocolError(f"{what}.{name}: an array of Python objects; use a numeric array")
-        elif not (isinstance(value, (bool, int, float, np.number, np.bool_)) or _compiled_function(value)):
+        elif not (isinstance(value, (bool, int, float, np.number, np.bool_)) or is_compiled_function(value)):
             raise ProtocolError(f"{what}.{name}: a {type(value).__name__}; params hold arrays, numbers, "
                                 "compiled functions (cfunc) and tuples of those")
 
@@ -129,7 +129,7 @@ def check_params(params, what: str = "params") -> None:
 _FUNCTION_CLASSES: set = set()     # Python classes whose values numba types as functions
 
 
-def _compiled_function(value) -> bool:
+def is_compiled_function(value) -> bool:
     """Whether numba takes ``value`` as a first-class function (a ``cfunc``), its class
     remembered (``typeof`` costs ~5 µs of a short run's set-up)."""
     if type(value) in _FUNCTION_CLASSES:

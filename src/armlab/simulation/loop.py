@@ -93,6 +93,7 @@ from armlab.control.entry import (
     check_params,
     compile_problem,
     crossing,
+    is_compiled_function,
     law_entry_types,
     law_trampoline,
     plain_params,
@@ -137,7 +138,8 @@ def env_trampoline(ep, env, t, R_0e, p_0e, v_e, h_e_out):
 def _type_key(value):
     """A cheap stand-in for ``numba.typeof(value)`` of a parameter tuple (which costs ~0.1 ms):
     equal keys mean equal numba types.  Arrays, (named) tuples, floats, bools and int64-range
-    ints are keyed by what decides their numba type; anything else by ``typeof`` itself."""
+    ints are keyed by what decides their numba type, a compiled function by itself (the key
+    keeps it alive, so its identity is never reused); anything else by ``typeof`` itself."""
     kind = type(value)
     if kind is np.ndarray:
         return (value.dtype, value.ndim, value.flags.c_contiguous, value.flags.f_contiguous,
@@ -146,6 +148,8 @@ def _type_key(value):
         return (kind, tuple(_type_key(v) for v in value))
     if kind is float or kind is bool or (kind is int and -2**63 <= value < 2**63):
         return kind
+    if is_compiled_function(value):
+        return (kind, value)    # one function, one type (typeof: ~8 µs a function)
     return typeof(value)
 
 

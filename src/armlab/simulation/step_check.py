@@ -74,15 +74,22 @@ def loop_gains(controller, q0: np.ndarray) -> tuple[np.ndarray, np.ndarray] | No
     return None
 
 
-def modes(plant, K: np.ndarray, D: np.ndarray, q0: np.ndarray, kinetic_energy=None) -> np.ndarray:
-    """The eigenvalues λ [1/s] of (S6) at q0, (2n,); ``kinetic_energy`` the plant's kernel
-    (:func:`inertia_at`)."""
+def system_matrix(plant, K: np.ndarray, D: np.ndarray, q0: np.ndarray, kinetic_energy=None) -> np.ndarray:
+    """A = [[0, I], [−B⁻¹K, −B⁻¹(F_v + D)]] (2n × 2n) of (S6) at q0; ``kinetic_energy`` the
+    plant's kernel (:func:`inertia_at`)."""
     n = plant.n
     B = inertia_at(plant, q0, kinetic_energy)
     viscous = np.diag(np.asarray(plant.arrays.viscous, dtype=float))
-    A = np.block([[np.zeros((n, n)), np.eye(n)],
-                  [-np.linalg.solve(B, K), -np.linalg.solve(B, viscous + D)]])
-    return np.linalg.eigvals(A)
+    A = np.zeros((2 * n, 2 * n))
+    A[:n, n:] = np.eye(n)
+    A[n:] = -np.linalg.solve(B, np.hstack((K, viscous + D)))
+    return A
+
+
+def modes(plant, K: np.ndarray, D: np.ndarray, q0: np.ndarray, kinetic_energy=None) -> np.ndarray:
+    """The eigenvalues λ [1/s] of (S6) at q0, (2n,); ``kinetic_energy`` the plant's kernel
+    (:func:`inertia_at`)."""
+    return np.linalg.eigvals(system_matrix(plant, K, D, q0, kinetic_energy))
 
 
 def _rk4_growth(z: np.ndarray) -> np.ndarray:
@@ -126,7 +133,12 @@ def check_step(plant, controller, q0, dt: float, stacklevel: int = 2,
     gains = loop_gains(controller, q0)
     if gains is None:
         return None
-    eigenvalues = modes(plant, *gains, q0, kinetic_energy)
+    A = system_matrix(plant, *gains, q0, kinetic_energy)
+    # Every |λ| is at most the largest row sum of |A| (its ∞-norm): most runs end here without
+    # the eigenvalues (35 µs of a PRP's 0.4 ms set-up), with the answer they would give.
+    if np.abs(A).sum(axis=1).max() * dt <= 1.0:
+        return None
+    eigenvalues = np.linalg.eigvals(A)
     if np.abs(eigenvalues).max() * dt <= 1.0:
         return None  # inside the half-disc |λh| ≤ 1 of Re ≤ 0, which RK4's region holds
     largest = rk4_largest_step(eigenvalues)
