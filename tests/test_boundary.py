@@ -9,6 +9,7 @@ from numba import cfunc, njit, typeof, types
 import armlab
 from armlab.control import entry
 from armlab.kernels.boundary import (
+    NativeFunction,
     borrowed,
     call_float,
     call_int,
@@ -212,7 +213,7 @@ def test_functions_cross_beside_their_tuple_and_are_put_back_in_order():
     a = np.array([0.5, 0.25])
     params = (_plus_one, (3.0, _twice), (a, a))
     values, functions = entry.crossing(params)
-    assert values == (None, (3.0, None), (a, a)) and functions == (_plus_one, _twice)
+    assert values == (None, (3.0, None), (a, a)) and functions == ((_plus_one, 0), (_twice, 0))
     assert values[2][0] is a
     assert _through_crossing(values, functions, 1.0) == 2.0 * 2.0 * 3.0 + 0.25
     swapped = (_twice, (3.0, _plus_one), (a, a))
@@ -239,6 +240,37 @@ def test_with_functions_refuses_counts_that_do_not_match():
         return with_functions(values, functions)
 
     with pytest.raises(Exception, match="more None items than functions"):
-        filled((None, None), (_plus_one,))
+        filled((None, None), ((_plus_one, 0),))
     with pytest.raises(Exception, match="more functions than None items"):
-        filled((1.0, None), (_plus_one, _twice))
+        filled((1.0, None), ((_plus_one, 0), (_twice, 0)))
+    with pytest.raises(Exception, match=r"\(function, address\) pairs"):
+        filled((None,), (_plus_one,))
+
+
+@njit(cache=False)
+def _cube(x):
+    return x * x * x
+
+
+class _DecoyWrapper(NativeFunction):
+    """A NativeFunction whose C wrapper is another function's: a call that reaches the C
+    wrapper returns x + 1, one in numba's own convention x³."""
+
+    def __wrapper_address__(self):
+        return _plus_one.address
+
+
+def test_a_native_function_is_called_at_its_own_address():
+    """crossing puts a NativeFunction's numba-convention address beside it and with_functions
+    writes it into the value, so compiled code calls the kernel itself and not the C wrapper
+    (as it does a cfunc, whose address is 0); from Python it calls the kernel."""
+    cube = _DecoyWrapper(_cube, types.float64(types.float64))
+    a = np.array([0.5, 0.25])
+    values, functions = entry.crossing((cube, (3.0, _twice), (a, a)))
+    assert functions[0][0] is cube and functions[0][1] == cube.native_address() != 0
+    assert functions[1] == (_twice, 0)
+    # second(first(x)) * scale + a[1] with first = x³ (not x + 1), second = 2x
+    assert _through_crossing(values, functions, 2.0) == 2.0 * 8.0 * 3.0 + 0.25
+    assert cube(3.0) == 27.0
+    plain = NativeFunction(_cube, types.float64(types.float64))
+    assert _through_crossing(*entry.crossing((plain, (1.0, _twice), (a, a))), 2.0) == 16.25

@@ -44,7 +44,7 @@ import numpy as np
 from numba import njit, typeof, types
 
 from armlab.errors import ProtocolError
-from armlab.kernels.boundary import borrowed, buffer_view, call_none
+from armlab.kernels.boundary import borrowed, buffer_view, call_none, native_address
 from armlab.specialise.closed_form import generated_module
 
 
@@ -89,7 +89,8 @@ def plain_params(params):
 def crossing(params) -> tuple[tuple, tuple]:
     """``params`` as the loop's entries (``rk4_run`` …) receive it from Python: its plain tuple
     (:func:`plain_params`) with None in place of each compiled function, and those functions,
-    depth first, in a tuple of their own; ``with_functions`` puts them back in compiled code.
+    depth first, in a tuple of their own, each beside its ``native_address`` (0 but for a
+    ``NativeFunction``); ``with_functions`` puts them back in compiled code.
     numba's dispatcher types the first from a fingerprint computed in C and only the second in
     Python (``armlab.kernels.boundary``: 16 µs a call instead of 120 µs for the A7 law's)."""
     functions = []
@@ -99,7 +100,7 @@ def crossing(params) -> tuple[tuple, tuple]:
             return tuple(strip(item) for item in value)
         if isinstance(value, (np.ndarray, np.generic, bool, int, float)):
             return value
-        functions.append(value)
+        functions.append((value, native_address(value)))
         return None
 
     return strip(params), tuple(functions)

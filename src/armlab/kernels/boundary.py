@@ -22,6 +22,14 @@ docstring:
   with 15 arrays and a function in one tuple costs 120 µs, with the function beside it 16 µs
   (the A7 law's parameters, on every ``simulate`` and on every right-hand side the adaptive
   integrator evaluates).
+* **Functions called in numba's own convention** (:class:`NativeFunction`): a kernel in a
+  law's parameters (the computed-torque law's inverse dynamics) as a first-class function
+  value (numba's documented ``WrapperAddressProtocol``) that compiled code calls at the
+  kernel's own address instead of through a C wrapper: :func:`with_functions` writes that
+  address into the value's ``jit_addr``, the slot numba's lowering calls when it is set and
+  fills only for its own dispatchers, whose type would make the law compile per robot
+  (measured: the Puma560's 10 s computed-torque run 17.5–17.6 ms through a ``cfunc``, 16.0 ms
+  so; the PRP's within its noise).
 
 Indirect calls
 --------------
@@ -54,8 +62,8 @@ from numba.np.arrayobj import make_array, populate_array
 
 from armlab.errors import IndirectCallError
 
-__all__ = ["borrowed", "buffer_view", "call_bool", "call_float", "call_int", "call_none", "call_status",
-           "kernel_address", "stack_address", "with_functions"]
+__all__ = ["NativeFunction", "borrowed", "buffer_view", "call_bool", "call_float", "call_int", "call_none",
+           "call_status", "kernel_address", "native_address", "stack_address", "with_functions"]
 
 
 def _indirect_call(restype):
@@ -138,6 +146,51 @@ def kernel_address(dispatcher, argtypes: tuple, restype) -> int:
         _ADDRESSES[key] = address
     _BY_IDENTITY[(id(dispatcher), id(argtypes))] = (dispatcher, argtypes, address)
     return address
+
+
+class NativeFunction(types.WrapperAddressProtocol):
+    """The jit-compiled ``dispatcher`` as a first-class function of ``signature`` (numba's
+    ``WrapperAddressProtocol``) that compiled code calls in numba's own calling convention
+    once :func:`with_functions` has put it in a parameter tuple (elsewhere through the C
+    wrapper numba compiles beside it, as a ``cfunc``); callable from Python.  See the module
+    docstring."""
+
+    def __init__(self, dispatcher, signature):
+        self.dispatcher = dispatcher
+        self._signature = signature
+        self._addresses = None
+
+    def signature(self):
+        return self._signature
+
+    def _compiled(self) -> tuple[int, int]:
+        """(C wrapper, numba-convention function) addresses, compiled or loaded on first use."""
+        if self._addresses is None:
+            args, restype = tuple(self._signature.args), self._signature.return_type
+            native = kernel_address(self.dispatcher, args, restype)
+            result = self.dispatcher.overloads[args]
+            wrapper = result.library.get_pointer_to_function(result.fndesc.llvm_cfunc_wrapper_name)
+            self._addresses = (wrapper, native)
+        return self._addresses
+
+    def __wrapper_address__(self) -> int:
+        return self._compiled()[0]
+
+    def native_address(self) -> int:
+        return self._compiled()[1]
+
+    def __call__(self, *args):
+        return self.dispatcher(*args)
+
+    def __repr__(self):
+        return f"NativeFunction({self.dispatcher.__name__}, {self._signature})"
+
+
+def native_address(function) -> int:
+    """The address :func:`with_functions` writes into the value of ``function`` (a compiled
+    function of a parameter tuple): its numba-convention one for a :class:`NativeFunction`, 0
+    (numba calls the C wrapper) for anything else, a ``cfunc`` say."""
+    return function.native_address() if isinstance(function, NativeFunction) else 0
 
 
 @intrinsic
@@ -224,7 +277,7 @@ def _filled_type(values, functions, start: int):
         if isinstance(member, types.NoneType):
             if i >= len(functions):
                 raise IndirectCallError("with_functions: more None items than functions")
-            members.append(functions[i])
+            members.append(functions[i].types[0])
             i += 1
         elif isinstance(member, types.BaseTuple):
             inner, i = _filled_type(member, functions, i)
@@ -234,13 +287,24 @@ def _filled_type(values, functions, start: int):
     return types.BaseTuple.from_types(members), i
 
 
+def _with_native_address(context, builder, function_type, pair):
+    """The first-class function value of ``pair`` = (value, address) with ``address`` as its
+    ``jit_addr`` (numba's own member, see :class:`NativeFunction`) unless it is 0."""
+    function = cgutils.create_struct_proxy(function_type)(context, builder,
+                                                         value=builder.extract_value(pair, 0))
+    address = builder.extract_value(pair, 1)
+    pointer = builder.inttoptr(address, function.jit_addr.type)
+    function.jit_addr = builder.select(cgutils.is_null(builder, address), function.jit_addr, pointer)
+    return function._getvalue()
+
+
 def _fill(context, builder, typ, value, result, functions, start: int):
     """(the LLVM value of type ``result`` made of ``value`` (of ``typ``) with the LLVM values
     ``functions[start:]`` in its ``none`` items, the index of the next function)."""
     out, i = context.get_constant_undef(result), start
     for k, member in enumerate(typ):
         if isinstance(member, types.NoneType):
-            item = functions[i]
+            item = _with_native_address(context, builder, result[k], functions[i])
             i += 1
         elif isinstance(member, types.BaseTuple):
             inner = builder.extract_value(value, k)
@@ -254,13 +318,17 @@ def _fill(context, builder, typ, value, result, functions, start: int):
 @intrinsic
 def with_functions(typingctx, values, functions):
     """``with_functions(values, functions)``: the tuple ``values`` (nested tuples too) with its
-    ``None`` items, depth first, replaced by the items of the tuple ``functions`` (compiled
-    functions), in order: the parameter tuple as the law sees it (see the module docstring,
-    and ``armlab.control.entry.crossing`` for the Python side).  The result holds references
+    ``None`` items, depth first, replaced by the compiled functions of the tuple ``functions``
+    of pairs (function, :func:`native_address` of it), in order: the parameter tuple as the
+    law sees it (see the module docstring, and ``armlab.control.entry.crossing`` for the
+    Python side).  The result holds references
     of its own to the arrays of ``values``, as numba's functions return them (none to count
     when ``values`` is :func:`borrowed`, as in the loop's entries)."""
     if not isinstance(values, types.BaseTuple) or not isinstance(functions, types.BaseTuple):
         return None
+    if not all(isinstance(pair, types.BaseTuple) and len(pair) == 2 and isinstance(pair[1], types.Integer)
+               for pair in functions):
+        raise IndirectCallError("with_functions: functions are (function, address) pairs")
     result, used = _filled_type(values, tuple(functions), 0)
     if used != len(functions):
         raise IndirectCallError("with_functions: more functions than None items")

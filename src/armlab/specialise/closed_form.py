@@ -60,11 +60,11 @@ import weakref
 from pathlib import Path
 
 import numpy as np
-from numba import cfunc
 
 from armlab.errors import CacheWarning, ClosedFormUnavailable
 from armlab.files import check_writable_folder, write_text
-from armlab.kernels.dynamics import make_workspace, rnea_into
+from armlab.kernels.boundary import NativeFunction
+from armlab.kernels.dynamics import kernel, make_workspace, rnea_into
 from armlab.kernels.plant import (
     INVERSE_DYNAMICS,
     forward_dynamics_packed,
@@ -417,7 +417,9 @@ def plant_kernels(robot: Robot, dynamics: str = "auto", field: str = "dynamics")
     return "closed_form", module.forward_dynamics, module.kinetic_energy
 
 
+@kernel
 def _numeric_inverse_dynamics(model, data, q, qd, qdd, tau_out):
+    """τ of (D1) with h_e = 0 by the plant's own RNEA (``rnea_packed``)."""
     n, m, ws = unpack_plant(model, data)
     rnea_packed(model, data, q, qd, qdd, ws.no_wrench, tau_out)
 
@@ -428,13 +430,16 @@ def numeric_inverse_dynamics():
     (compiled, or loaded from numba's cache, on first use).  It calls the plant's own
     ``rnea_packed`` with the workspace's zero wrench (skipped at run time), so a numeric run
     compiles one RNEA for plant and controller (a wrench-free RNEA would be a second, ~4 s
-    with empty caches), and ``armlab.inverse_dynamics`` calls the same."""
-    return cfunc(INVERSE_DYNAMICS, cache=True)(_numeric_inverse_dynamics)
+    with empty caches), as ``armlab.inverse_dynamics`` does."""
+    return NativeFunction(_numeric_inverse_dynamics, INVERSE_DYNAMICS)
 
 
 def inverse_dynamics_function(robot: Robot, dynamics: str = "auto", field: str = "dynamics"):
-    """``robot``'s inverse dynamics as the compiled function a law holds: numba's ``cfunc`` of
-    the signature ``armlab.kernels.plant.INVERSE_DYNAMICS``, its closed form's or the RNEA's.
+    """``robot``'s inverse dynamics as the compiled function a law holds, of the signature
+    ``armlab.kernels.plant.INVERSE_DYNAMICS``: its closed form's or the RNEA's kernel as a
+    :class:`~armlab.kernels.boundary.NativeFunction`, which the loop calls in numba's own
+    convention (a ``cfunc``'s C wrapper cost the Puma560's 10 s computed-torque run 1.5 ms of
+    17.5).
 
     A law calls it by its field's name (``params.inverse_dynamics(model, data, q, qd, y, tau)``)
     and compiles once for every robot and both kinds: all share one numba type, where a
@@ -446,6 +451,5 @@ def inverse_dynamics_function(robot: Robot, dynamics: str = "auto", field: str =
     with _GENERATED_LOCK:
         function = _FUNCTIONS.get(module.__name__)
         if function is None:
-            function = cfunc(INVERSE_DYNAMICS, cache=True)(module.inverse_dynamics_function)
-            _FUNCTIONS[module.__name__] = function
+            function = _FUNCTIONS[module.__name__] = NativeFunction(module.inverse_dynamics, INVERSE_DYNAMICS)
     return function

@@ -35,7 +35,6 @@ The module has the interface of the model-and-data kernels (``armlab.kernels.pla
     kinetic_energy(model, data, q, qd) -> T = ½ q̇ᵀ B(q) q̇                     (D6)
     mass_matrix(model, data, q, B_out) -> 0 | 1 wrong length  B(q) by the CRBA  (D2)
     checked_inverse_dynamics(model, data, q, qd, qdd, tau_out) -> 0 | 1 wrong length
-    inverse_dynamics_function(model, data, q, qd, qdd, tau_out)   (Python; a law's cfunc body)
 
 The model and data are ignored (the numbers are in the code).  ``armlab.specialise.closed_form``
 writes the module to its cache folder, compiles it with numba (``cache=True``) and checks it
@@ -392,14 +391,6 @@ def checked_inverse_lines(n: int) -> list[str]:
             "    return 0"]
 
 
-# The inverse dynamics as the body of a compiled function (``armlab.kernels.plant``'s
-# ``INVERSE_DYNAMICS``): ``armlab.specialise.closed_form`` compiles it with numba's ``cfunc``
-# on a law's first use, so importing the module for the plant compiles nothing more.
-FUNCTION_LINES = ["def inverse_dynamics_function(model, data, q, qd, qdd, tau_out):",
-                  '    """inverse_dynamics, the body of the compiled function a law holds."""',
-                  "    inverse_dynamics(model, data, q, qd, qdd, tau_out)"]
-
-
 def traced_source(robot: Robot, *, key: str) -> str:
     """Source of the module (interface in the module docstring) for ``robot``."""
     n = robot.n
@@ -475,4 +466,4 @@ def traced_source(robot: Robot, *, key: str) -> str:
     mass = mass_matrix_lines(n, body, [_text(value) for value in entries])
     return (HEADER.format(key=key) + "\n".join(inverse) + "\n\n\n" + "\n".join(forward)
             + "\n\n\n" + "\n".join(kinetic) + "\n\n\n" + "\n".join(mass) + "\n\n\n"
-            + "\n".join(checked_inverse_lines(n)) + "\n\n\n" + "\n".join(FUNCTION_LINES) + "\n")
+            + "\n".join(checked_inverse_lines(n)) + "\n")
