@@ -34,12 +34,15 @@ armlab 07e3c3f: 5.3 ms a run, the hand-written loop 1.87 ms; 40 000 right-hand s
 
 Tried and measured on the same machine (best of 30–40 runs, alternating): the law calling its model's
 inverse dynamics in numba's own convention instead of through a ``cfunc``'s C wrapper, no
-faster (5.42 against 5.27–5.60 ms); the law's parameters without ``borrowed`` in its entry,
-7.1 ms; the model's generated kernel as a dispatcher the law calls directly, 4.34 ms, but then
-the law compiles per robot and misses numba's disk cache in every new process.  The code at
+faster on the PRP (5.42 against 5.27–5.60 ms) but the Puma560's run 17.5 → 16.0 ms, so kept
+(``armlab.kernels.boundary.NativeFunction``); the law's parameters without ``borrowed`` in
+its entry, 7.1 ms; the model's generated kernel as a dispatcher the law calls directly,
+4.34 ms, but then the law compiles per robot and misses numba's disk cache in every new
+process; the traced kernels with constant multiples and sums of one value folded (τ₁ = q̈₁
+instead of five operations), no faster on either robot.  The code at
 77b07e2 (SymPy's closed forms, shorter than the traced ones of ``armlab.specialise``, and no
-step check) ran 4.55 ms there, 2.43× the hand loop and 91× the Pinocchio loop (this code: 5.20 ms,
-2.77× and 80× in ``make bench``), and the Puma560's run in 15.1 ms, 32× (this code: 17.3 ms, 28×).
+step check) ran 4.55 ms there, 2.43× the hand loop and 91× the Pinocchio loop (07e3c3f: 5.20 ms,
+2.77× and 80× in ``make bench``), and the Puma560's run in 15.1 ms, 32× (07e3c3f: 17.3 ms, 28×).
 
 Run: ``python benchmarks/bench_simulation.py`` or ``make bench``.
 """

@@ -53,6 +53,7 @@ raised by the callee propagate to the caller as in a direct call.
 
 from __future__ import annotations
 
+import numba.experimental.function_type  # noqa: F401  (registers numba's typeof of NativeFunction)
 from llvmlite import ir
 from numba import types
 from numba.core import cgutils
