@@ -53,7 +53,7 @@ def best_of(controller, repeats: int) -> float:
     return min(times)
 
 
-def main() -> None:
+def python_case() -> None:
     gains = Gains(Q_DES, KP, KD)
     print(f"{'law (PRP, 10 s at 1 kHz, RK4)':34s} {'Python [s]':>11s} {'njit [s]':>10s} {'factor':>8s}")
     cases = (("short form tau = law(t, q, qd)", short, ()), ("full protocol form", full, gains))
@@ -104,6 +104,10 @@ def inlined_case() -> None:
         print(f"{name:34s} {called * 1e3:12.2f} {inlined * 1e3:13.2f} {called / inlined:7.2f}")
 
 
+def main() -> None:
+    python_case()
+    inlined_case()
+
+
 if __name__ == "__main__":
     main()
-    inlined_case()
