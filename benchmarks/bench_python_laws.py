@@ -68,10 +68,10 @@ def inlined_sides(t_final: float = 10.0) -> dict:
     (the PRP, 1 ms steps) and returning its result."""
     scenario = load_scenario("a7_id_via_points")
     robot, a7 = scenario.plant, scenario.controller
-    wide_params = replace(a7, dynamics="numeric")
+    a7_numeric = replace(a7, dynamics="numeric")
 
     def side(kind, wide):
-        controller = kind(robot, a7.reference, wide_params if wide else None)
+        controller = kind(robot, a7.reference, a7_numeric if wide else None)
         return lambda: armlab.simulate(robot, controller, q0=np.zeros(3), t_final=t_final, dt=1e-3)
 
     return {(name, wide): side(kind, wide) for name, kind in (("called", CalledPD), ("inlined", InlinedPD))

@@ -31,6 +31,8 @@ class ReferenceGains(NamedTuple):
     qdd_des: np.ndarray             # (n,) scratch
 
 
+# Two definitions of one body: a law gets its generated entry only when its module holds it
+# under its own function's name, so the two decorations cannot share one ``def``.
 @njit(cache=True)
 def called_law(t, q, qd, z, h_e, params, tau_out, zdot_out, signals_out):
     """τ = K_P (q_des(t) − q) − K_D q̇ (diagonal gains) with q_des the reference at t."""

@@ -86,12 +86,6 @@ def system_matrix(plant, K: np.ndarray, D: np.ndarray, q0: np.ndarray, kinetic_e
     return A
 
 
-def modes(plant, K: np.ndarray, D: np.ndarray, q0: np.ndarray, kinetic_energy=None) -> np.ndarray:
-    """The eigenvalues λ [1/s] of (S6) at q0, (2n,); ``kinetic_energy`` the plant's kernel
-    (:func:`inertia_at`)."""
-    return np.linalg.eigvals(system_matrix(plant, K, D, q0, kinetic_energy))
-
-
 def _rk4_growth(z: np.ndarray) -> np.ndarray:
     return np.abs(1 + z + z**2 / 2 + z**3 / 6 + z**4 / 24)
 
