@@ -213,7 +213,7 @@ def test_functions_cross_beside_their_tuple_and_are_put_back_in_order():
     a = np.array([0.5, 0.25])
     params = (_plus_one, (3.0, _twice), (a, a))
     values, functions = entry.crossing(params)
-    assert values == (None, (3.0, None), (a, a)) and functions == ((_plus_one, 0), (_twice, 0))
+    assert values == (None, (3.0, None), (a, a)) and functions == ((0, _plus_one), (0, _twice))
     assert values[2][0] is a
     assert _through_crossing(values, functions, 1.0) == 2.0 * 2.0 * 3.0 + 0.25
     swapped = (_twice, (3.0, _plus_one), (a, a))
@@ -240,10 +240,10 @@ def test_with_functions_refuses_counts_that_do_not_match():
         return with_functions(values, functions)
 
     with pytest.raises(Exception, match="more None items than functions"):
-        filled((None, None), ((_plus_one, 0),))
+        filled((None, None), ((0, _plus_one),))
     with pytest.raises(Exception, match="more functions than None items"):
-        filled((1.0, None), ((_plus_one, 0), (_twice, 0)))
-    with pytest.raises(Exception, match=r"\(function, address\) pairs"):
+        filled((1.0, None), ((0, _plus_one), (0, _twice)))
+    with pytest.raises(Exception, match=r"\(address, function\) pairs"):
         filled((None,), (_plus_one,))
 
 
@@ -267,10 +267,26 @@ def test_a_native_function_is_called_at_its_own_address():
     cube = _DecoyWrapper(_cube, types.float64(types.float64))
     a = np.array([0.5, 0.25])
     values, functions = entry.crossing((cube, (3.0, _twice), (a, a)))
-    assert functions[0][0] is cube and functions[0][1] == cube.native_address() != 0
-    assert functions[1] == (_twice, 0)
+    assert functions[0][1] is cube and functions[0][0] == cube.native_address() != 0
+    assert functions[1] == (0, _twice)
     # second(first(x)) * scale + a[1] with first = x³ (not x + 1), second = 2x
     assert _through_crossing(values, functions, 2.0) == 2.0 * 8.0 * 3.0 + 0.25
     assert cube(3.0) == 27.0
     plain = NativeFunction(_cube, types.float64(types.float64))
     assert _through_crossing(*entry.crossing((plain, (1.0, _twice), (a, a))), 2.0) == 16.25
+
+
+
+def test_a_native_function_is_typed_once_and_as_numba_types_its_signature():
+    """numba's own typeof of a WrapperAddressProtocol builds the type from the signature at
+    every dispatch (~6 µs); a NativeFunction's typeof returns the type made with it, the type
+    numba would make."""
+    from numba.extending import typeof_impl
+
+    from armlab.kernels import boundary
+
+    assert typeof_impl.dispatch(NativeFunction) is boundary._typeof_native_function
+    signature = types.float64(types.float64)
+    cube = NativeFunction(_cube, signature)
+    assert typeof(cube) is cube.numba_type
+    assert typeof(cube) == types.FunctionType(signature) == typeof(NativeFunction(_cube, signature))

@@ -89,10 +89,12 @@ def plain_params(params):
 def crossing(params) -> tuple[tuple, tuple]:
     """``params`` as the loop's entries (``rk4_run`` …) receive it from Python: its plain tuple
     (:func:`plain_params`) with None in place of each compiled function, and those functions,
-    depth first, in a tuple of their own, each beside its ``native_address`` (0 but for a
+    depth first, in a tuple of their own, each after its ``native_address`` (0 but for a
     ``NativeFunction``); ``with_functions`` puts them back in compiled code.
     numba's dispatcher types the first from a fingerprint computed in C and only the second in
-    Python (``armlab.kernels.boundary``: 16 µs a call instead of 120 µs for the A7 law's)."""
+    Python (``armlab.kernels.boundary``: 16 µs a call instead of 120 µs for the A7 law's).  The
+    address comes first in each pair: numba types a tuple whose first item is a function by
+    trying to unify all its items as functions, with a warning each time (~25 µs a pair)."""
     functions = []
 
     def strip(value):
@@ -100,7 +102,7 @@ def crossing(params) -> tuple[tuple, tuple]:
             return tuple(strip(item) for item in value)
         if isinstance(value, (np.ndarray, np.generic, bool, int, float)):
             return value
-        functions.append((value, native_address(value)))
+        functions.append((native_address(value), value))
         return None
 
     return strip(params), tuple(functions)
