@@ -98,8 +98,9 @@ def quintic(t, times, values):
     return values[j] + delta * s, delta * sd, delta * sdd
 
 
-def pinocchio_loop(robot, times, values, kp, kd, q0, t_final=T_FINAL):
-    """RK4 closed loop in Python: τ = rnea(q, q̇, y) (computed torque), q̈ = aba(q, q̇, τ)."""
+def pinocchio_rhs(robot, times, values, kp, kd):
+    """ẋ = f(t, x) of the closed loop in Python: τ = rnea(q, q̇, y) (computed torque),
+    q̈ = aba(q, q̇, τ)."""
     import pinocchio as pin
 
     sys.path.insert(0, str(HERE.parent / "tests"))
@@ -116,6 +117,13 @@ def pinocchio_loop(robot, times, values, kp, kd, q0, t_final=T_FINAL):
         y = qdd_des + kd * (qd_des - qd) + kp * (q_des - q)
         tau = pin.rnea(model, data, q, qd, y)
         return np.concatenate([qd, pin.aba(model, data, q, qd, tau)])
+
+    return f
+
+
+def pinocchio_loop(robot, times, values, kp, kd, q0, t_final=T_FINAL):
+    """RK4 closed loop in Python over :func:`pinocchio_rhs`."""
+    n, f = robot.n, pinocchio_rhs(robot, times, values, kp, kd)
 
     def run():
         x = np.concatenate([q0, np.zeros(n)])
@@ -328,6 +336,54 @@ def puma_case():
     print(f"  target: ≥ 30× faster than the Pinocchio loop: {ratio:.0f}× ({verdict(ratio >= 30)})")
 
 
+ADAPTIVE = "armlab.simulate(method='adaptive')"
+SCIPY_PINOCCHIO = "scipy's solver over pinocchio.rnea/aba"
+
+
+def adaptive_sides(t_final, integrator="RK45", rtol=1e-8, atol=1e-10):
+    """The A7 run on SciPy's adaptive ``integrator``, label → a function returning its q at the
+    1 kHz grid: armlab (``method="adaptive"``: SciPy steps, the compiled loop evaluates each
+    right-hand side, called from Python) and ``solve_ivp`` over the Pinocchio right-hand side,
+    same solver class and tolerances."""
+    from scipy.integrate import solve_ivp
+
+    _, (robot, controller, times, values, kp, kd, q0), _ = prp_setup()
+    n, f = robot.n, pinocchio_rhs(robot, times, values, kp, kd)
+    grid = np.arange(int(round(t_final / DT)) + 1) * DT
+    specialised = replace(controller, dynamics="closed_form")
+    return {
+        ADAPTIVE: lambda: simulate(robot, specialised, q0=q0, t_final=t_final, dt=DT, method="adaptive",
+                                   integrator=integrator, rtol=rtol, atol=atol, dynamics="closed_form").q,
+        SCIPY_PINOCCHIO: lambda: solve_ivp(f, (0.0, grid[-1]), np.concatenate([q0, np.zeros(n)]),
+                                           method=integrator, t_eval=grid, rtol=rtol, atol=atol).y[:n].T,
+    }
+
+
+def check_adaptive(t_final):
+    """Both adaptive sides agree to 1e-6 (two implementations of the dynamics under one error
+    controller: their step sequences may part at round-off, each within its tolerance)."""
+    runs = adaptive_sides(t_final)
+    reference = runs[ADAPTIVE]()
+    return assert_close(runs[SCIPY_PINOCCHIO](), reference, 1e-6,
+                        "A7 adaptive: SciPy over Pinocchio vs armlab")
+
+
+def adaptive_case():
+    """Context, no target: the A7 run on SciPy's RK45 (rtol 1e-8, atol 1e-10), where armlab's
+    compiled right-hand side is called from Python once per evaluation, so the cost of a call
+    (the law's parameters crossing into compiled code) shows."""
+    difference = check_adaptive(T_FINAL)
+    runs = adaptive_sides(T_FINAL)
+    seconds = {label: best_cpu(run, repeats=3)[0] for label, run in runs.items()}
+    steps = simulate(*prp_setup()[1][:2], q0=np.zeros(3), t_final=T_FINAL, dt=DT, method="adaptive",
+                     integrator="RK45", rtol=1e-8, atol=1e-10, dynamics="closed_form").meta["solver_steps"]
+    print(f"\nPRP A7, {T_FINAL:g} s on SciPy's RK45 (rtol 1e-8, atol 1e-10; {steps} solver steps, "
+          f"max |q difference| {difference:.1e})")
+    for label, t in seconds.items():
+        print(f"  {label:52s} {t * 1e3:8.1f} ms {seconds[SCIPY_PINOCCHIO] / t:8.1f}× faster than "
+              f"SciPy over Pinocchio" if label == ADAPTIVE else f"  {label:52s} {t * 1e3:8.1f} ms")
+
+
 def sweep_controllers(scenario, runs):
     base = scenario.controller
     gains = np.linspace(4.0, 12.0, runs)
@@ -399,6 +455,7 @@ def rollout_case(runs=1000, t_final=1.0):
 def main():
     scenario = prp_case()
     puma_case()
+    adaptive_case()
     sweep_case(scenario)
 
 

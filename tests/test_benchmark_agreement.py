@@ -59,6 +59,10 @@ def test_simulated_prp_sides_agree_with_armlab():
                                 bench_simulation.HAND}
 
 
+def test_the_adaptive_a7_sides_agree():
+    assert bench_simulation.check_adaptive(t_final=0.5) <= 1e-6
+
+
 def test_a_small_law_runs_the_same_called_or_inlined():
     bench_python_laws.check_inlined(t_final=0.05)
 

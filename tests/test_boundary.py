@@ -213,8 +213,9 @@ def test_functions_cross_beside_their_tuple_and_are_put_back_in_order():
     a = np.array([0.5, 0.25])
     params = (_plus_one, (3.0, _twice), (a, a))
     values, functions = entry.crossing(params)
-    assert values == (None, (3.0, None), (a, a)) and functions == ((0, _plus_one), (0, _twice))
-    assert values[2][0] is a
+    assert values[0] == (None, (3.0, None), (a, a)) and functions == (_plus_one, _twice)
+    assert values[1].dtype == np.int64 and values[1].tolist() == [0, 0]
+    assert values[0][2][0] is a
     assert _through_crossing(values, functions, 1.0) == 2.0 * 2.0 * 3.0 + 0.25
     swapped = (_twice, (3.0, _plus_one), (a, a))
     assert _through_crossing(*entry.crossing(swapped), 1.0) == (2.0 + 1.0) * 3.0 + 0.25
@@ -231,7 +232,8 @@ def test_functions_cross_beside_their_tuple_and_are_put_back_in_order():
     assert sys.getrefcount(a) == before
     (signature,) = filled_type.nopython_signatures
     assert signature.return_type == typeof(entry.plain_params(params))
-    assert entry.crossing((1.0, np.int64(2), True, a)) == ((1.0, np.int64(2), True, a), ())
+    (plain, addresses), functions = entry.crossing((1.0, np.int64(2), True, a))
+    assert plain == (1.0, np.int64(2), True, a) and addresses.shape == (0,) and functions == ()
 
 
 def test_with_functions_refuses_counts_that_do_not_match():
@@ -239,12 +241,15 @@ def test_with_functions_refuses_counts_that_do_not_match():
     def filled(values, functions):
         return with_functions(values, functions)
 
+    none = np.zeros(2, dtype=np.int64)
     with pytest.raises(Exception, match="more None items than functions"):
-        filled((None, None), ((0, _plus_one),))
+        filled(((None, None), none), (_plus_one,))
     with pytest.raises(Exception, match="more functions than None items"):
-        filled((1.0, None), ((0, _plus_one), (0, _twice)))
-    with pytest.raises(Exception, match=r"\(address, function\) pairs"):
-        filled((None,), (_plus_one,))
+        filled(((1.0, None), none), (_plus_one, _twice))
+    with pytest.raises(Exception, match="addresses an int64 array"):
+        filled(((None,), np.zeros(1)), (_plus_one,))
+    with pytest.raises(Exception, match="functions are first-class functions"):
+        filled(((None,), none), (1.0,))
 
 
 @njit(cache=False)
@@ -267,8 +272,8 @@ def test_a_native_function_is_called_at_its_own_address():
     cube = _DecoyWrapper(_cube, types.float64(types.float64))
     a = np.array([0.5, 0.25])
     values, functions = entry.crossing((cube, (3.0, _twice), (a, a)))
-    assert functions[0][1] is cube and functions[0][0] == cube.native_address() != 0
-    assert functions[1] == (0, _twice)
+    assert functions == (cube, _twice) and values[1].tolist() == [cube.native_address(), 0]
+    assert cube.native_address() != 0
     # second(first(x)) * scale + a[1] with first = x³ (not x + 1), second = 2x
     assert _through_crossing(values, functions, 2.0) == 2.0 * 8.0 * 3.0 + 0.25
     assert cube(3.0) == 27.0
@@ -290,3 +295,40 @@ def test_a_native_function_is_typed_once_and_as_numba_types_its_signature():
     cube = NativeFunction(_cube, signature)
     assert typeof(cube) is cube.numba_type
     assert typeof(cube) == types.FunctionType(signature) == typeof(NativeFunction(_cube, signature))
+
+
+@njit(cache=False)
+def _read_back_law(pointer, x):
+    first, (scale, second), arrays = pointer[0]
+    return second(first(x)) * scale + arrays[0][1]
+
+
+@njit(cache=False)
+def _through_an_address(address, pointer, x):
+    return call_float(address, (pointer, x))
+
+
+def test_a_parked_parameter_tuple_reads_back_through_its_address():
+    """loop.parked copies the tuple as the law sees it (its functions put back, a
+    NativeFunction's own address written in) into bytes whose address a law reads as it reads
+    a stack copy; park says how many bytes it needs and writes nothing into fewer."""
+    cube = NativeFunction(_cube, types.float64(types.float64))
+    a = np.array([0.5, 0.25])
+    params = (cube, (3.0, _twice), (a, a))
+    values, functions = entry.crossing(params)
+    size = loop.park_params(values, functions, np.zeros(0, dtype=np.uint8))
+    small = np.full(size - 1, 7, dtype=np.uint8)
+    assert loop.park_params(values, functions, small) == size and (small == 7).all()
+    buffer = loop.parked(values, functions)
+    assert buffer.dtype == np.uint8 and buffer.size == size
+    _with_functions_type(values, functions)
+    (signature,) = _with_functions_type.nopython_signatures
+    pointer_type = types.CPointer(signature.return_type)
+    address = kernel_address(_read_back_law, (pointer_type, types.float64), types.float64)
+    # second(first(x)) * scale + a[1] with first = x³ (the kernel, not its C wrapper), second = 2x
+    assert _through_an_address(address, buffer.ctypes.data, 2.0) == 2.0 * 8.0 * 3.0 + 0.25
+
+
+@njit(cache=False)
+def _with_functions_type(values, functions):
+    return with_functions(values, functions)

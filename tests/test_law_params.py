@@ -155,7 +155,7 @@ def test_the_shared_loop_functions_never_see_a_named_tuple(monkeypatch):
     # A law without an entry (one that cannot be imported by name) goes through law_trampoline.
     monkeypatch.setattr(simulator, "generated_entry", lambda law: None)
     scenario.run(t_final=0.01)
-    shared = (loop.rk4_run, loop.rhs, loop.log_rows, entry.law_trampoline,
+    shared = (loop.rk4_run, loop.park_params, loop.rhs, loop.log_rows, entry.law_trampoline,
               loop.env_trampoline)
     signatures = [(function.py_func.__name__, signature) for function in shared
                   for signature in function.signatures]

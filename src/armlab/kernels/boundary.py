@@ -17,11 +17,16 @@ docstring:
 * **Functions beside their tuple** (:func:`with_functions`): a parameter tuple that holds a
   compiled function (the computed-torque law's inverse dynamics) crosses from Python with
   ``None`` in the function's place and the function in a tuple of its own, and is put together
-  again in compiled code.  numba's dispatcher types a tuple of arrays and numbers from a
+  again in compiled code; each function's :func:`native_address` travels in an int64 array
+  beside the tuple.  numba's dispatcher types a tuple of arrays and numbers from a
   fingerprint computed in C, but a tuple holding a function in Python, item by item: a call
   with 15 arrays and a function in one tuple costs 120 µs, with the function beside it 16 µs
-  (the A7 law's parameters, on every ``simulate`` and on every right-hand side the adaptive
-  integrator evaluates).
+  (the A7 law's parameters, on every ``simulate``); (address, function) pairs cost 33 µs to
+  type, the functions alone 9 µs.
+* **Parked parameters** (:func:`park`): a parameter tuple copied once into bytes the caller
+  keeps, so that a compiled function called from Python many times (the adaptive
+  integrator's right-hand side) takes its address instead of the tuple and its functions
+  (the A7 run on SciPy's RK45 101.8 → 28.3 ms).
 * **Functions called in numba's own convention** (:class:`NativeFunction`): a kernel in a
   law's parameters (the computed-torque law's inverse dynamics) as a first-class function
   value (numba's documented ``WrapperAddressProtocol``) that compiled code calls at the
@@ -30,9 +35,8 @@ docstring:
   fills only for its own dispatchers, whose type would make the law compile per robot
   (measured: the Puma560's 10 s computed-torque run 17.5–17.6 ms through a ``cfunc``, 16.0 ms
   so; the PRP's within its noise).  Its numba type is made once, registered with numba's
-  documented ``typeof_impl``, and it crosses after its address, not before: numba typed it anew
-  at every call, and a pair that starts with a function it first tries to unify as functions,
-  with a warning each time (together 50 µs of the A7 run's ``simulate`` set-up, 405 → 358 µs).
+  documented ``typeof_impl`` (numba's own typeof of the protocol builds it anew at every call).
+  With the addresses in an array, ``simulate``'s set-up on the A7 run went 405 → 330 µs.
 
 Indirect calls
 --------------
@@ -67,7 +71,7 @@ from numba.np.arrayobj import make_array, populate_array
 from armlab.errors import IndirectCallError
 
 __all__ = ["NativeFunction", "borrowed", "buffer_view", "call_bool", "call_float", "call_int", "call_none",
-           "call_status", "kernel_address", "native_address", "stack_address", "with_functions"]
+           "call_status", "kernel_address", "native_address", "park", "stack_address", "with_functions"]
 
 
 def _indirect_call(restype):
@@ -110,6 +114,32 @@ def stack_address(typingctx, value):
         return builder.ptrtoint(slot, ir.IntType(64))
 
     return types.int64(value), codegen
+
+
+@intrinsic
+def park(typingctx, value, buffer):
+    """``park(value, buffer)``: the number of bytes ``value`` takes, and ``value`` copied into
+    ``buffer`` (a C-contiguous uint8 array) if it has that many.  A parameter tuple parked
+    once is read back through ``buffer``'s address as through :func:`stack_address`'s, for as
+    long as the caller keeps ``buffer`` and what the tuple references (arrays, functions)
+    alive: the adaptive integrator's right-hand side, called from Python at every stage, then
+    takes two addresses instead of the parameters and their functions, which numba types and
+    unboxes in Python at every call (measured: the A7 10 s run on SciPy's RK45 at armlab's
+    default tolerances 101.8 → 28.3 ms, on Radau 987 → 415 ms, the same trajectories)."""
+    if not (isinstance(buffer, types.Array) and buffer.ndim == 1 and buffer.layout == "C"
+            and buffer.dtype == types.uint8):
+        return None
+
+    def codegen(context, builder, sig, args):
+        value, buf = args
+        llty = context.get_value_type(sig.args[0])
+        size = ir.Constant(ir.IntType(64), context.get_abi_sizeof(llty))
+        array = make_array(sig.args[1])(context, builder, buf)
+        with builder.if_then(builder.icmp_signed(">=", array.nitems, size)):
+            builder.store(value, builder.bitcast(array.data, llty.as_pointer()))
+        return size
+
+    return types.int64(value, buffer), codegen
 
 
 call_none = _indirect_call(types.none)
@@ -291,7 +321,7 @@ def _filled_type(values, functions, start: int):
         if isinstance(member, types.NoneType):
             if i >= len(functions):
                 raise IndirectCallError("with_functions: more None items than functions")
-            members.append(functions[i].types[1])
+            members.append(functions[i])
             i += 1
         elif isinstance(member, types.BaseTuple):
             inner, i = _filled_type(member, functions, i)
@@ -301,24 +331,23 @@ def _filled_type(values, functions, start: int):
     return types.BaseTuple.from_types(members), i
 
 
-def _with_native_address(context, builder, function_type, pair):
-    """The first-class function value of ``pair`` = (address, value) with ``address`` as its
-    ``jit_addr`` (numba's own member, see :class:`NativeFunction`) unless it is 0."""
-    function = cgutils.create_struct_proxy(function_type)(context, builder,
-                                                         value=builder.extract_value(pair, 1))
-    address = builder.extract_value(pair, 0)
+def _with_native_address(context, builder, function_type, value, address):
+    """The first-class function ``value`` with ``address`` as its ``jit_addr`` (numba's own
+    member, see :class:`NativeFunction`) unless it is 0."""
+    function = cgutils.create_struct_proxy(function_type)(context, builder, value=value)
     pointer = builder.inttoptr(address, function.jit_addr.type)
     function.jit_addr = builder.select(cgutils.is_null(builder, address), function.jit_addr, pointer)
     return function._getvalue()
 
 
 def _fill(context, builder, typ, value, result, functions, start: int):
-    """(the LLVM value of type ``result`` made of ``value`` (of ``typ``) with the LLVM values
-    ``functions[start:]`` in its ``none`` items, the index of the next function)."""
+    """(the LLVM value of type ``result`` made of ``value`` (of ``typ``) with the LLVM
+    (function, address) pairs ``functions[start:]`` in its ``none`` items, the index of the
+    next function)."""
     out, i = context.get_constant_undef(result), start
     for k, member in enumerate(typ):
         if isinstance(member, types.NoneType):
-            item = _with_native_address(context, builder, result[k], functions[i])
+            item = _with_native_address(context, builder, result[k], *functions[i])
             i += 1
         elif isinstance(member, types.BaseTuple):
             inner = builder.extract_value(value, k)
@@ -330,28 +359,36 @@ def _fill(context, builder, typ, value, result, functions, start: int):
 
 
 @intrinsic
-def with_functions(typingctx, values, functions):
-    """``with_functions(values, functions)``: the tuple ``values`` (nested tuples too) with its
-    ``None`` items, depth first, replaced by the compiled functions of the tuple ``functions``
-    of pairs (:func:`native_address` of a function, the function), in order: the parameter tuple as the
-    law sees it (see the module docstring, and ``armlab.control.entry.crossing`` for the
-    Python side).  The result holds references
-    of its own to the arrays of ``values``, as numba's functions return them (none to count
-    when ``values`` is :func:`borrowed`, as in the loop's entries)."""
-    if not isinstance(values, types.BaseTuple) or not isinstance(functions, types.BaseTuple):
+def with_functions(typingctx, crossed, functions):
+    """``with_functions((values, addresses), functions)``: the tuple ``values`` (nested tuples
+    too) with its ``None`` items, depth first, replaced by the compiled functions of the tuple
+    ``functions``, in order, the function i with ``addresses[i]`` (its :func:`native_address`)
+    written in: the parameter tuple as the law sees it (see the module docstring, and
+    ``armlab.control.entry.crossing``, which makes both, for the Python side).  The result
+    holds references of its own to the arrays of ``values``, as numba's functions return them
+    (none to count when ``values`` is :func:`borrowed`, as in the loop's entries)."""
+    if not (isinstance(crossed, types.BaseTuple) and len(crossed) == 2
+            and isinstance(crossed[0], types.BaseTuple) and isinstance(functions, types.BaseTuple)):
         return None
-    if not all(isinstance(pair, types.BaseTuple) and len(pair) == 2 and isinstance(pair[0], types.Integer)
-               for pair in functions):
-        raise IndirectCallError("with_functions: functions are (address, function) pairs")
-    result, used = _filled_type(values, tuple(functions), 0)
+    address_type = crossed[1]
+    if not (isinstance(address_type, types.Array) and address_type.dtype == types.int64
+            and address_type.ndim == 1 and address_type.layout == "C"):
+        raise IndirectCallError("with_functions: (values, addresses) with addresses an int64 array")
+    if not all(isinstance(f, types.FunctionType) for f in functions):
+        raise IndirectCallError("with_functions: functions are first-class functions")
+    result, used = _filled_type(crossed[0], tuple(functions), 0)
     if used != len(functions):
         raise IndirectCallError("with_functions: more functions than None items")
 
     def codegen(context, builder, sig, args):
         value, packed = args
-        items = [builder.extract_value(packed, i) for i in range(len(sig.args[1]))]
+        plain_type = sig.args[0][0]
+        addresses = make_array(sig.args[0][1])(context, builder, builder.extract_value(value, 1)).data
+        items = [(builder.extract_value(packed, i), builder.load(cgutils.gep(builder, addresses, i)))
+                 for i in range(len(sig.args[1]))]
         # A new reference to what ``values`` holds (nothing to count when it is borrowed).
-        filled = _fill(context, builder, sig.args[0], value, sig.return_type, items, 0)[0]
+        filled = _fill(context, builder, plain_type, builder.extract_value(value, 0), sig.return_type,
+                       items, 0)[0]
         return impl_ret_borrowed(context, builder, sig.return_type, filled)
 
-    return result(values, functions), codegen
+    return result(crossed, functions), codegen

@@ -444,6 +444,9 @@ def _run_adaptive(setup, meta, on_divergence, rtol, atol, integrator, max_steps)
         raise SimulationError(f"integrator: {integrator!r} is not one of {', '.join(SOLVERS)}")
     n, width = setup.n, setup.sig_width
     fn, work, (cplain, cfunctions), (eplain, efunctions) = loop.bind(setup)
+    # The parameters parked once (the addresses stay valid while these locals live).
+    parked = loop.parked(cplain, cfunctions), loop.parked(eplain, efunctions)
+    cp, ep = (buffer.ctypes.data for buffer in parked)
     pp = setup.plant.packed
     rhs_core, log_core = loop.core_address("rhs"), loop.core_address("log")
     has_env = setup.environment is not None
@@ -456,8 +459,8 @@ def _run_adaptive(setup, meta, on_divergence, rtol, atol, integrator, max_steps)
         # SciPy may hand a strided column (Radau's, BDF's numerical Jacobian); the loop
         # reads its state as contiguous float64.
         x = np.ascontiguousarray(x, dtype=float)
-        loop.rhs(rhs_core, fn, float(t), x, pp, cplain, cfunctions, eplain, efunctions, setup.dist, has_env,
-                        call_law, z_rate, setup.lim, work, width, xdot)
+        loop.rhs(rhs_core, fn, float(t), x, pp, cp, ep, setup.dist, has_env, call_law, z_rate, setup.lim,
+                 work, width, xdot)
         return xdot.copy()
 
     x = setup.x0.copy()
@@ -473,8 +476,8 @@ def _run_adaptive(setup, meta, on_divergence, rtol, atol, integrator, max_steps)
             if setup.sampled:
                 if first > 0:
                     x[2 * n:] += setup.every * setup.dt * zdot_held
-                loop.rhs(rhs_core, fn, grid[first], x, pp, cplain, cfunctions, eplain, efunctions, setup.dist,
-                                has_env, True, 0.0, setup.lim, work, width, xdot)
+                loop.rhs(rhs_core, fn, grid[first], x, pp, cp, ep, setup.dist, has_env, True, 0.0,
+                         setup.lim, work, width, xdot)
                 zdot_held = work[loop_memory.zdot_slice(n, setup.k)].copy()
             args = (not setup.sampled, 0.0 if setup.sampled else 1.0)
             xs, solved, used = solve_stepwise(rhs, grid[first], grid[last], x, integrator, rtol, atol,
