@@ -6,6 +6,9 @@ loop with the PRP's closed-form dynamics, side by side in one run.
   Python calling ``pinocchio.rnea`` (controller) and ``pinocchio.aba`` (plant); and a numba loop
   written by hand with B, C, g of ``docs/prp-dynamics.md`` (P1–P3) — the practical limit.
 * **Puma560**: the same controller and loop on the 6-DoF arm (armlab vs Pinocchio).
+* **Adaptive step** (context, no target): the A7 run on SciPy's RK45, armlab's
+  ``method="adaptive"`` (SciPy steps, each right-hand side a call of the compiled loop from
+  Python) against ``solve_ivp`` over the Pinocchio right-hand side, same solver and tolerances.
 * **Gain sweep**: 1000 runs of the A7 scenario (shortened to 1 s) with different gains,
   ``simulate_batch`` on all cores (threads: the compiled loop releases the GIL) vs one core.
 
