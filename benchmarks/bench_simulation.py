@@ -42,7 +42,13 @@ faster on the PRP (5.42 against 5.27–5.60 ms) but the Puma560's run 17.5 → 1
 its entry, 7.1 ms; the model's generated kernel as a dispatcher the law calls directly,
 4.34 ms, but then the law compiles per robot and misses numba's disk cache in every new
 process; the traced kernels with constant multiples and sums of one value folded (τ₁ = q̈₁
-instead of five operations), no faster on either robot.  The code at
+instead of five operations), no faster on either robot; one length-checked inverse dynamics
+returning a status for the law and for ``armlab.inverse_dynamics`` alike (two kernels fewer),
+5.27–5.57 → 5.79–5.87 ms (numeric 16.9 → 17.8 ms), not kept.  What the calls between the
+loop, the law and the kernels cost: a compiled call through an address with seven arrays
+(numba passes each as seven machine words) takes 9.3 ns, with seven addresses 2.5 ns; a
+right-hand side makes two such calls with six or seven arrays (the plant's forward dynamics,
+the law's inverse dynamics), about 0.5 ms of the run, where the hand loop makes none.  The code at
 77b07e2 (SymPy's closed forms, shorter than the traced ones of ``armlab.specialise``, and no
 step check) ran 4.55 ms there, 2.43× the hand loop and 91× the Pinocchio loop (07e3c3f: 5.20 ms,
 2.77× and 80× in ``make bench``), and the Puma560's run in 15.1 ms, 32× (07e3c3f: 17.3 ms, 28×).
