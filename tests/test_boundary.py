@@ -19,6 +19,7 @@ from armlab.kernels.boundary import (
     with_functions,
 )
 from armlab.kernels.plant import forward_dynamics_packed, kinetic_energy_packed, make_data
+from armlab.kernels.workspace import no_wrench_of, workspace_from_buffer
 from armlab.simulation import loop, loop_memory
 
 VEC = types.float64[::1]
@@ -332,3 +333,17 @@ def test_a_parked_parameter_tuple_reads_back_through_its_address():
 @njit(cache=False)
 def _with_functions_type(values, functions):
     return with_functions(values, functions)
+
+
+@njit(cache=False)
+def _no_wrench_both_ways(buf, n):
+    whole = workspace_from_buffer(buf, n).no_wrench
+    alone = no_wrench_of(buf, n)
+    return whole.ctypes.data == alone.ctypes.data and whole.shape == alone.shape
+
+
+@pytest.mark.parametrize("n", [1, 3, 7])
+def test_the_zero_wrench_alone_is_the_workspaces_own(n):
+    from armlab.kernels.workspace import workspace_size
+
+    assert _no_wrench_both_ways(np.zeros(workspace_size(n)), n)

@@ -57,6 +57,7 @@ from armlab.kernels.plant import (
     rnea_packed,
     unpack_plant,
 )
+from armlab.kernels.workspace import no_wrench_of
 from armlab.model.robot import Robot
 from armlab.specialise import DYNAMICS_CHOICES, chosen_module
 
@@ -138,10 +139,10 @@ def _free_motion_entry(model, data, q, qd, qdd, tau_out):
     """The common call, with gravity and without a wrench (also g(q) = τ(q, 0, 0)): the
     plant's ``rnea_packed`` with the workspace's zero wrench (skipped at run time), the one
     compiled RNEA that also serves the simulation's plant and a law's model."""
-    n, m, ws = unpack_plant(model, data)
+    n = int(model[0])
     if q.shape[0] != n or qd.shape[0] != n or qdd.shape[0] != n:
         return 1
-    rnea_packed(model, data, q, qd, qdd, ws.no_wrench, tau_out)
+    rnea_packed(model, data, q, qd, qdd, no_wrench_of(data, n), tau_out)
     return 0
 
 

@@ -65,13 +65,8 @@ from armlab.errors import CacheWarning, ClosedFormUnavailable
 from armlab.files import check_writable_folder, write_text
 from armlab.kernels.boundary import NativeFunction
 from armlab.kernels.dynamics import kernel, make_workspace, rnea_into
-from armlab.kernels.plant import (
-    INVERSE_DYNAMICS,
-    forward_dynamics_packed,
-    kinetic_energy_packed,
-    rnea_packed,
-    unpack_plant,
-)
+from armlab.kernels.plant import INVERSE_DYNAMICS, forward_dynamics_packed, kinetic_energy_packed, rnea_packed
+from armlab.kernels.workspace import no_wrench_of
 from armlab.model.robot import Robot
 
 # Beyond this many joints no module is generated: generating and compiling the traced code
@@ -420,8 +415,7 @@ def plant_kernels(robot: Robot, dynamics: str = "auto", field: str = "dynamics")
 @kernel
 def _numeric_inverse_dynamics(model, data, q, qd, qdd, tau_out):
     """τ of (D1) with h_e = 0 by the plant's own RNEA (``rnea_packed``)."""
-    n, m, ws = unpack_plant(model, data)
-    rnea_packed(model, data, q, qd, qdd, ws.no_wrench, tau_out)
+    rnea_packed(model, data, q, qd, qdd, no_wrench_of(data, int(model[0])), tau_out)
 
 
 @functools.cache
