@@ -19,7 +19,7 @@ from armlab.kernels.boundary import (
     with_functions,
 )
 from armlab.kernels.plant import forward_dynamics_packed, kinetic_energy_packed, make_data
-from armlab.kernels.workspace import no_wrench_of, workspace_from_buffer
+from armlab.kernels.workspace import no_wrench_of, rest_of, workspace_from_buffer
 from armlab.simulation import loop, loop_memory
 
 VEC = types.float64[::1]
@@ -347,3 +347,18 @@ def test_the_zero_wrench_alone_is_the_workspaces_own(n):
     from armlab.kernels.workspace import workspace_size
 
     assert _no_wrench_both_ways(np.zeros(workspace_size(n)), n)
+
+
+@njit(cache=False)
+def _rest_both_ways(buf, n):
+    whole = workspace_from_buffer(buf, n)
+    zero, scratch = rest_of(buf, n)
+    return (whole.zero.ctypes.data == zero.ctypes.data and whole.zero.shape == zero.shape
+            and whole.t1.ctypes.data == scratch.ctypes.data and whole.t1.shape == scratch.shape)
+
+
+@pytest.mark.parametrize("n", [1, 3, 7])
+def test_the_zero_vector_and_scratch_alone_are_the_workspaces_own(n):
+    from armlab.kernels.workspace import workspace_size
+
+    assert _rest_both_ways(np.zeros(workspace_size(n)), n)

@@ -1,6 +1,9 @@
 """armlab's compiled dynamics vs Pinocchio (an independent implementation), built from armlab's
 URDF export: RNEA, CRBA, gravity, C q̇ and ABA on the bundled robots and on random robots.
 
+The kinetic energy (½ q̇ᵀ B q̇ with B q̇ from armlab's RNEA) against Pinocchio's
+``computeKineticEnergy`` (a body-by-body sum).
+
 URDF and Pinocchio have no motor rotors or friction, so those are removed here
 (``without_actuators``); their terms are checked against closed forms in test_dynamics.py.
 Pinocchio works in Σ_base; joint-space quantities do not depend on the frame.
@@ -56,6 +59,9 @@ def compare_with_pinocchio(robot, q, qd, qdd):
     # C q̇ = nle − g: its rounding residue is relative to nle and g (e.g. one joint: C q̇ ≡ 0).
     assert_close(coriolis_matrix(rigid, q, qd) @ qd, nle - g_pin, "C q̇",
                  floor=max(float(np.abs(nle).max()), float(np.abs(g_pin).max()), 1e-12))
+
+    energy = pin.computeKineticEnergy(model, data, qp, vp)
+    assert_close(armlab.kinetic_energy(rigid, q, qd), energy, "kinetic energy")
 
     aba = armlab_v(rigid, model, pin.aba(model, data, qp, vp, pinocchio_v(rigid, model, tau)))
     assert_close(forward_dynamics(rigid, q, qd, tau), aba, "aba")

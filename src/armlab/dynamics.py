@@ -48,7 +48,7 @@ import numpy as np
 from numba import njit, types
 
 from armlab.errors import SingularInertiaError
-from armlab.kernels.dynamics import FASTMATH, coriolis_matrix_into, mass_matrix_inline, rnea_into
+from armlab.kernels.dynamics import FASTMATH, coriolis_matrix_into, mass_matrix_inline
 from armlab.kernels.energy import potential_energy_kernel
 from armlab.kernels.plant import (
     forward_dynamics_packed,
@@ -142,15 +142,16 @@ def _free_motion_entry(model, data, q, qd, qdd, tau_out):
     n = int(model[0])
     if q.shape[0] != n or qd.shape[0] != n or qdd.shape[0] != n:
         return 1
-    rnea_packed(model, data, q, qd, qdd, no_wrench_of(data, n), tau_out)
+    rnea_packed(model, data, q, qd, qdd, 1.0, no_wrench_of(data, n), tau_out)
     return 0
 
 
 def _inverse_dynamics_entry(model, data, q, qd, qdd, gravity_scale, h_e, tau_out):
-    n, m, ws = unpack_plant(model, data)
+    """Every other call (a wrench, or gravity off): the same ``rnea_packed``."""
+    n = int(model[0])
     if q.shape[0] != n or qd.shape[0] != n or qdd.shape[0] != n or h_e.shape[0] != 6:
         return 1
-    rnea_into(m, ws, q, qd, qdd, gravity_scale, h_e, tau_out)
+    rnea_packed(model, data, q, qd, qdd, gravity_scale, h_e, tau_out)
     return 0
 
 

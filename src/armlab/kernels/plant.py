@@ -14,12 +14,15 @@ allocation):
 
 Kernels (all arrays float64, C-contiguous; (n,) unless stated):
 
-    rnea_packed(model, data, q, qd, qdd, h_e, tau_out)          τ of (D1) with gravity and h_e
-                                            (an all-zero h_e, the workspace's ``no_wrench``,
-                                            skips the wrench at run time)
+    rnea_packed(model, data, q, qd, qdd, gravity_scale, h_e, tau_out)
+                                            τ of (D1) with g(q) · gravity_scale and h_e (an
+                                            all-zero h_e, the workspace's ``no_wrench``, skips
+                                            the wrench at run time): the one compiled RNEA of
+                                            the plant, of a law's model and of the public
+                                            functions
     forward_dynamics_packed(model, data, q, qd, tau, h_e, qdd_out) -> 0 | 1 wrong length |
                                                                       2 B not PD
-    kinetic_energy_packed(model, data, q, qd) -> T [J] (NaN for a wrong length)
+    kinetic_energy_packed(model, data, q, qd) -> T [J] (NaN for a wrong length), by the RNEA
     measure_packed(model, q, qd, work, R_0e, p_0e, v_e)   pose (3, 3), (3,) and twist (6,) of Σ_e
                                                           in Σ_0; work (18 n,) scratch
 
@@ -38,10 +41,10 @@ from armlab.kernels.dynamics import (
     workspace_from_buffer,
     workspace_size,
 )
-from armlab.kernels.energy import kinetic_energy_kernel
 from armlab.kernels.kinematics import end_effector_into, geometric_jacobian_into, joint_frames_into
 from armlab.kernels.linalg import cholesky_solve_inplace
 from armlab.kernels.packed import unpack_robot
+from armlab.kernels.workspace import no_wrench_of, rest_of
 
 
 def make_data(n: int) -> np.ndarray:
@@ -69,16 +72,16 @@ def unpack_plant(model, data):
 
 
 @kernel
-def rnea_packed(model, data, q, qd, qdd, h_e, tau_out):
-    """τ = B q̈ + C q̇ + F_v q̇ + F_s sgn q̇ + g + Jᵀ h_e (D1) by the RNEA, leaving the joint
-    transforms in the workspace; lengths unchecked.
+def rnea_packed(model, data, q, qd, qdd, gravity_scale, h_e, tau_out):
+    """τ = B q̈ + C q̇ + F_v q̇ + F_s sgn q̇ + g · gravity_scale + Jᵀ h_e (D1) by the RNEA,
+    leaving the joint transforms in the workspace; lengths unchecked.
 
     The forward dynamics below calls it rather than inlining it: its inlined RNEA with a
     wrench cost ~10 s of compile time with empty caches, the call and the CRBA ~3 s more
     than this kernel, and the call costs a few nanoseconds of a numeric PRP step (within
     noise)."""
     n, m, ws = unpack_plant(model, data)
-    rnea_inline(m, ws, q, qd, qdd, 1.0, h_e, tau_out)
+    rnea_inline(m, ws, q, qd, qdd, gravity_scale, h_e, tau_out)
 
 
 # (model, data, q, qd, qdd, tau_out) -> None: a model's inverse dynamics as a law calls it
@@ -96,7 +99,7 @@ def forward_dynamics_packed(model, data, q, qd, tau, h_e, qdd_out):
     if (q.shape[0] != n or qd.shape[0] != n or tau.shape[0] != n or h_e.shape[0] != 6
             or qdd_out.shape[0] != n):
         return 1
-    rnea_packed(model, data, q, qd, ws.zero, h_e, qdd_out)
+    rnea_packed(model, data, q, qd, ws.zero, 1.0, h_e, qdd_out)
     for k in range(n):
         qdd_out[k] = tau[k] - qdd_out[k]
     crba_body(m, ws, n, ws.L)
@@ -105,11 +108,21 @@ def forward_dynamics_packed(model, data, q, qd, tau, h_e, qdd_out):
 
 @kernel
 def kinetic_energy_packed(model, data, q, qd):
-    """Kinetic energy (D6) [J], or NaN for a wrong length."""
-    n, m, ws = unpack_plant(model, data)
+    """Kinetic energy T = ½ q̇ᵀ B(q) q̇ (D6) [J], rotors included, or NaN for a wrong length.
+
+    B(q) q̇ is the RNEA's τ at q̈ = q̇ with zero velocity, no gravity and no wrench: with
+    q̇ = 0 no Coriolis, centrifugal or friction term is left (F_s sgn 0 = 0).  So the energy
+    check of a numeric simulation compiles no kernel of its own (the body-by-body sum of (D6)
+    took 1.3–1.6 s to compile with empty caches, on the way to every first result)."""
+    n = int(model[0])
     if q.shape[0] != n or qd.shape[0] != n:
         return np.nan
-    return kinetic_energy_kernel(m, ws, q, qd)
+    zero, momentum = rest_of(data, n)
+    rnea_packed(model, data, q, zero, qd, 0.0, no_wrench_of(data, n), momentum)
+    total = 0.0
+    for i in range(n):
+        total += qd[i] * momentum[i]
+    return 0.5 * total
 
 
 @kernel

@@ -111,6 +111,16 @@ def no_wrench_of(buf, n):
     return buffer_view(borrowed(buf), workspace_size(n) - 6, 6, np.float64)
 
 
+@njit(cache=True, inline="always")
+def rest_of(buf, n):
+    """``(zero, t1)`` of ``workspace_from_buffer(buf, n)`` alone, borrowed: the zero vector and
+    a scratch vector that the RNEA leaves alone, for a caller that needs no other view (as
+    :func:`no_wrench_of`)."""
+    buf = borrowed(buf)
+    zero = workspace_size(n) - 15 - n
+    return buffer_view(buf, zero, n, np.float64), buffer_view(buf, zero - 2 * n, n, np.float64)
+
+
 @njit(cache=True)
 def make_workspace(n):
     """A :class:`DynamicsWorkspace` for an n-joint robot (one zeroed buffer)."""

@@ -415,7 +415,7 @@ def plant_kernels(robot: Robot, dynamics: str = "auto", field: str = "dynamics")
 @kernel
 def _numeric_inverse_dynamics(model, data, q, qd, qdd, tau_out):
     """τ of (D1) with h_e = 0 by the plant's own RNEA (``rnea_packed``)."""
-    rnea_packed(model, data, q, qd, qdd, no_wrench_of(data, int(model[0])), tau_out)
+    rnea_packed(model, data, q, qd, qdd, 1.0, no_wrench_of(data, int(model[0])), tau_out)
 
 
 @functools.cache
