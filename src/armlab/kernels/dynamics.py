@@ -23,7 +23,8 @@ Published API (n = number of joints; float64 arrays)::
 
 The Cholesky solve of (D5) is ``armlab.kernels.linalg.cholesky_solve_inplace``.
 
-The energies (D6, D7) are in ``armlab.kernels.energy`` (same arguments).
+The potential energy (D7) is in ``armlab.kernels.energy`` (same arguments); the kinetic
+energy (D6), ½ q̇ᵀ B q̇ with B q̇ from the RNEA, is ``armlab.kernels.plant.kinetic_energy_packed``.
 
 ``rnea_inline``, ``mass_matrix_inline`` and ``forward_dynamics_inline`` are the
 implementations, inlined into their caller; the ``*_into`` kernels are each one of them behind
