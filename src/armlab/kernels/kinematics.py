@@ -30,41 +30,12 @@ kernel = njit(cache=True)
 
 
 @kernel
-def compose_joint(R_prev, p_prev, X_R, X_p, kind, value, R_out, p_out):
-    """R_out, p_out ← (R_prev, p_prev) · (X_R, X_p) · M(value); M about/along local z."""
-    for r in range(3):
-        p_out[r] = p_prev[r] + R_prev[r, 0] * X_p[0] + R_prev[r, 1] * X_p[1] + R_prev[r, 2] * X_p[2]
-    # A = R_prev X_R
-    a00 = R_prev[0, 0] * X_R[0, 0] + R_prev[0, 1] * X_R[1, 0] + R_prev[0, 2] * X_R[2, 0]
-    a01 = R_prev[0, 0] * X_R[0, 1] + R_prev[0, 1] * X_R[1, 1] + R_prev[0, 2] * X_R[2, 1]
-    a02 = R_prev[0, 0] * X_R[0, 2] + R_prev[0, 1] * X_R[1, 2] + R_prev[0, 2] * X_R[2, 2]
-    a10 = R_prev[1, 0] * X_R[0, 0] + R_prev[1, 1] * X_R[1, 0] + R_prev[1, 2] * X_R[2, 0]
-    a11 = R_prev[1, 0] * X_R[0, 1] + R_prev[1, 1] * X_R[1, 1] + R_prev[1, 2] * X_R[2, 1]
-    a12 = R_prev[1, 0] * X_R[0, 2] + R_prev[1, 1] * X_R[1, 2] + R_prev[1, 2] * X_R[2, 2]
-    a20 = R_prev[2, 0] * X_R[0, 0] + R_prev[2, 1] * X_R[1, 0] + R_prev[2, 2] * X_R[2, 0]
-    a21 = R_prev[2, 0] * X_R[0, 1] + R_prev[2, 1] * X_R[1, 1] + R_prev[2, 2] * X_R[2, 1]
-    a22 = R_prev[2, 0] * X_R[0, 2] + R_prev[2, 1] * X_R[1, 2] + R_prev[2, 2] * X_R[2, 2]
-    if kind == PRISMATIC:
-        R_out[0, 0], R_out[0, 1], R_out[0, 2] = a00, a01, a02
-        R_out[1, 0], R_out[1, 1], R_out[1, 2] = a10, a11, a12
-        R_out[2, 0], R_out[2, 1], R_out[2, 2] = a20, a21, a22
-        p_out[0] += a02 * value
-        p_out[1] += a12 * value
-        p_out[2] += a22 * value
-    else:
-        c, s = np.cos(value), np.sin(value)
-        R_out[0, 0], R_out[0, 1], R_out[0, 2] = a00 * c + a01 * s, a01 * c - a00 * s, a02
-        R_out[1, 0], R_out[1, 1], R_out[1, 2] = a10 * c + a11 * s, a11 * c - a10 * s, a12
-        R_out[2, 0], R_out[2, 1], R_out[2, 2] = a20 * c + a21 * s, a21 * c - a20 * s, a22
-
-
-@kernel
 def joint_frames_into(m, q, R_out, p_out):
     """Poses of the joint frames J_1…J_n in Σ_0 (K2): R_out (n, 3, 3), p_out (n, 3).
 
-    Same product as :func:`compose_joint`, written with plain indices: RobotArrays fields are
-    read once and no sub-array views are made, because each field access or view inside the
-    loop costs a reference-count round trip (measured 2–4× slower on a 6-joint arm).
+    Written with plain indices: RobotArrays fields are read once and no sub-array views are
+    made, because each field access or view inside the loop costs a reference-count round trip
+    (measured 2–4× slower on a 6-joint arm).
     """
     n = q.shape[0]
     tree_R, tree_p, joint_type, offset = m.tree_R, m.tree_p, m.joint_type, m.offset
