@@ -1,7 +1,8 @@
 """A control law in plain Python against its ``numba.njit`` twin: the PRP under a joint PD,
 10 s at 1 kHz (RK4, four law calls a step), in both the short form ``tau = law(t, q, qd)`` and
 the full protocol form.  Prints the wall times and the slow-down factor quoted in
-``docs/python-laws.md``.
+``docs/python-laws.md``.  The plant runs on its generated closed form (:data:`PLANT`) in
+every case.
 
 Then a small law declared at module level (``inlined_laws.py``), called from its generated
 entry or compiled inside it (``njit(inline="always")``), with a parameter tuple of the four
@@ -25,6 +26,10 @@ from inlined_laws import CalledPD, InlinedPD
 ROBOT = armlab.load_robot("prp")
 Q_DES = np.array([0.1, 1.0, 0.05])
 KP, KD = np.array([25.0, 5.0, 10.0]), np.array([10.0, 1.0, 3.0])
+# The plant's kernels, named: with "auto" a run takes the robot's generated module only once one
+# is on disk, and these figures would then depend on what ran before (numeric kernels after an
+# edit of the kernels or on a new machine: the compiled runs 3-4 times slower).
+PLANT = "closed_form"
 
 
 class Gains(NamedTuple):
@@ -44,11 +49,11 @@ def full(t, q, qd, z, h_e, params, tau_out, zdot_out, signals_out):
 
 
 def best_of(controller, repeats: int) -> float:
-    armlab.simulate(ROBOT, controller, q0=np.zeros(3), t_final=0.01, dt=1e-3)  # compile / warm up
+    armlab.simulate(ROBOT, controller, q0=np.zeros(3), t_final=0.01, dt=1e-3, dynamics=PLANT)  # warm up
     times = []
     for _ in range(repeats):
         start = time.perf_counter()
-        armlab.simulate(ROBOT, controller, q0=np.zeros(3), t_final=10.0, dt=1e-3)
+        armlab.simulate(ROBOT, controller, q0=np.zeros(3), t_final=10.0, dt=1e-3, dynamics=PLANT)
         times.append(time.perf_counter() - start)
     return min(times)
 
@@ -72,7 +77,8 @@ def inlined_sides(t_final: float = 10.0) -> dict:
 
     def side(kind, wide):
         controller = kind(robot, a7.reference, a7_numeric if wide else None)
-        return lambda: armlab.simulate(robot, controller, q0=np.zeros(3), t_final=t_final, dt=1e-3)
+        return lambda: armlab.simulate(robot, controller, q0=np.zeros(3), t_final=t_final, dt=1e-3,
+                                       dynamics=PLANT)
 
     return {(name, wide): side(kind, wide) for name, kind in (("called", CalledPD), ("inlined", InlinedPD))
             for wide in (False, True)}
