@@ -10,7 +10,10 @@ numba's import alone then takes several times longer; (a) shows both.
   1 kHz, RK4; its data written as .npz) against MuJoCo's fresh process for the same run: the
   PRP loaded from armlab's URDF export, RK4 at 1 kHz, the same computed torque
   τ = B(q) y + n(q, q̇) in a Python control callback (``mujoco.set_mjcb_control``, called at
-  every RK4 stage as armlab's law is).  Target (issue 14): armlab ≤ 2× MuJoCo.  Beside it the
+  every RK4 stage as armlab's law is).  Target (issue 14): armlab ≤ 2× MuJoCo.  The row names
+  the plant kernels armlab's run used: the scenario's "auto" takes the PRP's generated module
+  when one is on disk (``make bench`` runs ``bench_simulation.py`` first, which makes it), else
+  the numeric kernels.  Beside it the
   floor of any numba program (import numba, call one cached compiled function) and MuJoCo's
   cheaper run with the torque computed once per step and held over its RK4 stages.
 * **(b)** ``import armlab`` (CPU) above ``import numba``; target ≤ 0.5 s.  Beside it the
@@ -262,18 +265,27 @@ def numba_floor(env) -> Timed:
         return best_of(BEST_OF, args, env)
 
 
+def run_dynamics(out) -> str:
+    """The plant kernels armlab's run in folder ``out`` used, from its file's header: "auto"
+    takes the robot's generated module only once one is on disk (else the numeric kernels),
+    so the figure of (a) depends on what ran on the machine before."""
+    with np.load(Path(out) / f"{SCENARIO}.npz", allow_pickle=False) as data:
+        return json.loads(str(data["header"]))["meta"]["dynamics"]
+
+
 def fresh_processes(env, specs):
     """armlab's A7 process, numba's floor and MuJoCo's process for each of ``specs``, best of
-    :data:`BEST_OF` each after one process that fills the caches."""
+    :data:`BEST_OF` each after one process that fills the caches; and the kernels armlab ran."""
     with tempfile.TemporaryDirectory() as out:
         run_process(armlab_run_args(out), env)
         ours = best_of(BEST_OF, armlab_run_args(out), env)
+        dynamics = run_dynamics(out)
     theirs = []
     for spec in specs:
         mujoco = [sys.executable, "-c", MUJOCO_RUN, spec]
         run_process(mujoco, env)
         theirs.append(best_of(BEST_OF, mujoco, env))
-    return ours, numba_floor(env), theirs
+    return ours, numba_floor(env), theirs, dynamics
 
 
 def filled_caches_case(bytecode):
@@ -295,9 +307,9 @@ def filled_caches_case(bytecode):
         settings = (("Python bytecode cached", environment(bytecode)),
                     ("no Python bytecode cache", environment(none, PYTHONDONTWRITEBYTECODE="1")))
         for title, env in settings:
-            ours, floor, theirs = fresh_processes(env, specs)
+            ours, floor, theirs, dynamics = fresh_processes(env, specs)
             print(f"  {title}:")
-            rows = [(f"armlab run {SCENARIO} --format npz", ours),
+            rows = [(f"armlab run {SCENARIO} --format npz ({dynamics} kernels)", ours),
                     ("floor of any numba program (import numba, one cached call)", floor)]
             rows += [(f"{label} (its loop {json.loads(timed.stdout)['run']:.2f} s)", timed)
                      for label, timed in zip(labels, theirs, strict=False)]
