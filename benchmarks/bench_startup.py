@@ -12,8 +12,8 @@ numba's import alone then takes several times longer; (a) shows both.
   τ = B(q) y + n(q, q̇) in a Python control callback (``mujoco.set_mjcb_control``, called at
   every RK4 stage as armlab's law is).  Target (issue 14): armlab ≤ 2× MuJoCo.  The row names
   the plant kernels armlab's run used: the scenario's "auto" takes the PRP's generated module
-  when one is on disk (``make bench`` runs ``bench_simulation.py`` first, which makes it), else
-  the numeric kernels.  Beside it the
+  when one is on disk (in ``make bench`` the scripts before this one make it), else the numeric
+  kernels.  Beside it the
   floor of any numba program (import numba, call one cached compiled function) and MuJoCo's
   cheaper run with the torque computed once per step and held over its RK4 stages.
 * **(b)** ``import armlab`` (CPU) above ``import numba``; target ≤ 0.5 s.  Beside it the

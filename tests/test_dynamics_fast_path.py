@@ -214,6 +214,10 @@ def test_wrench_and_gravity_switch_take_the_full_path(prp):
     without = inverse_dynamics(prp, q, qd, qdd, gravity=False)
     np.testing.assert_allclose(inverse_dynamics(prp, q, qd, qdd) - without,
                                gravity_torque(prp, q), rtol=1e-12, atol=1e-12)
+    # Both switches at once: the wrench's Jᵀ h_e stays, g(q) goes.
+    np.testing.assert_allclose(inverse_dynamics(prp, q, qd, qdd, h_e=h_e, gravity=False),
+                               _kernel_tau(prp, q, qd, qdd, h_e) - gravity_torque(prp, q),
+                               rtol=1e-12, atol=1e-12)
 
 
 @pytest.mark.parametrize("bad, name", [(np.zeros(2), "qdd"), (np.zeros(4), "qdd"),

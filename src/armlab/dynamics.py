@@ -418,9 +418,12 @@ def forward_dynamics(robot: Robot, q, qd, tau, h_e=None, dynamics: str = NUMERIC
 
 
 def kinetic_energy(robot: Robot, q, qd, data: DynamicsData | None = None) -> float:
-    """Kinetic energy T = ½ q̇ᵀ B(q) q̇ [J] of links and motor rotors, summed body by body:
+    """Kinetic energy of links and motor rotors [J] (D6):
 
-        T = Σ_i ½ m_i ‖ṗ_Ci‖² + ½ ω_iᵀ I_Ci ω_i + ½ I_mi (z_miᵀ ω_{i−1} + k_ri q̇_i)²       (D6)
+        T = Σ_i ½ m_i ‖ṗ_Ci‖² + ½ ω_iᵀ I_Ci ω_i + ½ I_mi (z_miᵀ ω_{i−1} + k_ri q̇_i)² = ½ q̇ᵀ B(q) q̇
+
+    computed as ½ q̇ᵀ (B q̇), B q̇ being the RNEA's τ at q̈ = q̇ with zero velocity, no gravity
+    and no wrench (``armlab.kernels.plant.kinetic_energy_packed``).
     """
     data = _data_of(robot, data)
     return float(_ENTRIES.kinetic_energy(robot.packed, data.workspace, *_vectors(robot, q=q, qd=qd)))

@@ -30,9 +30,10 @@ energy (D6), ½ q̇ᵀ B q̇ with B q̇ from the RNEA, is ``armlab.kernels.plant
 implementations, inlined into their caller; the ``*_into`` kernels are each one of them behind
 one call.  A call passes ``m`` and ``ws`` flattened, ~300 machine words, and under numba's
 reference counting the callee counts its ~35 arrays in and out: ~0.25 µs, more than a 3-joint
-RNEA.  Each inlined copy is compiled anew (the RNEA's takes ~5 s, once per machine), so the
-entries that run often inline them (the packed-robot kernels of ``armlab.kernels.plant`` and
-the Python entries of ``armlab.dynamics``) and the rest call.
+RNEA.  Each inlined copy is compiled anew (the RNEA's takes ~3-5 s, once per machine), so
+the kernels that run often inline them: ``armlab.kernels.plant.rnea_packed``, the one RNEA of
+the plant and of ``armlab.inverse_dynamics``, and the CRBA of the plant's forward dynamics and
+of ``armlab.inertia_matrix``; the task-space and adaptive laws call the ``*_into`` kernels.
 
 Arguments: q, qd, qdd, tau (n,) [m | rad, /s, /s², N | N·m]; ``h_e`` (6,) = [f_e; μ_e], the
 wrench the end effector exerts on the environment, in Σ_0, μ_e about the origin of Σ_e

@@ -18,8 +18,9 @@ Kernels (all arrays float64, C-contiguous; (n,) unless stated):
                                             τ of (D1) with g(q) · gravity_scale and h_e (an
                                             all-zero h_e, the workspace's ``no_wrench``, skips
                                             the wrench at run time): the one compiled RNEA of
-                                            the plant, of a law's model and of the public
-                                            functions
+                                            the plant, of a law's numeric model, of
+                                            ``armlab.inverse_dynamics``, ``gravity_torque``
+                                            and the kinetic energy
     forward_dynamics_packed(model, data, q, qd, tau, h_e, qdd_out) -> 0 | 1 wrong length |
                                                                       2 B not PD
     kinetic_energy_packed(model, data, q, qd) -> T [J] (NaN for a wrong length), by the RNEA
