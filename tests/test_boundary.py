@@ -352,13 +352,15 @@ def test_the_zero_wrench_alone_is_the_workspaces_own(n):
 @njit(cache=False)
 def _rest_both_ways(buf, n):
     whole = workspace_from_buffer(buf, n)
-    zero, scratch = rest_of(buf, n)
+    zero, scratch, no_wrench = rest_of(buf, n)
     return (whole.zero.ctypes.data == zero.ctypes.data and whole.zero.shape == zero.shape
-            and whole.t1.ctypes.data == scratch.ctypes.data and whole.t1.shape == scratch.shape)
+            and whole.t1.ctypes.data == scratch.ctypes.data and whole.t1.shape == scratch.shape
+            and whole.no_wrench.ctypes.data == no_wrench.ctypes.data
+            and whole.no_wrench.shape == no_wrench.shape)
 
 
 @pytest.mark.parametrize("n", [1, 3, 7])
-def test_the_zero_vector_and_scratch_alone_are_the_workspaces_own(n):
+def test_the_tail_views_alone_are_the_workspaces_own(n):
     from armlab.kernels.workspace import workspace_size
 
     assert _rest_both_ways(np.zeros(workspace_size(n)), n)

@@ -1,8 +1,8 @@
 """Compiled potential energy of a robot (D7).
 
 Used by ``armlab.potential_energy`` (and so by the joint stops' energy check), inlined into
-its entry (it is small); it shares the joint-frame recursion conventions of ``armlab.kernels.dynamics``
-(scratch space from its ``DynamicsWorkspace``).  The kinetic energy (D6) is
+its entry (it is small); it shares the joint-frame recursion conventions of
+``armlab.kernels.dynamics`` (scratch space from its ``DynamicsWorkspace``).  The kinetic energy (D6) is
 ``armlab.kernels.plant.kinetic_energy_packed``: ½ q̇ᵀ B q̇ with B q̇ from the RNEA.
 """
 

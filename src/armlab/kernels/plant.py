@@ -45,7 +45,7 @@ from armlab.kernels.dynamics import (
 from armlab.kernels.kinematics import end_effector_into, geometric_jacobian_into, joint_frames_into
 from armlab.kernels.linalg import cholesky_solve_inplace
 from armlab.kernels.packed import unpack_robot
-from armlab.kernels.workspace import no_wrench_of, rest_of
+from armlab.kernels.workspace import rest_of
 
 
 def make_data(n: int) -> np.ndarray:
@@ -118,8 +118,8 @@ def kinetic_energy_packed(model, data, q, qd):
     n = int(model[0])
     if q.shape[0] != n or qd.shape[0] != n:
         return np.nan
-    zero, momentum = rest_of(data, n)
-    rnea_packed(model, data, q, zero, qd, 0.0, no_wrench_of(data, n), momentum)
+    zero, momentum, no_wrench = rest_of(data, n)
+    rnea_packed(model, data, q, zero, qd, 0.0, no_wrench, momentum)
     total = 0.0
     for i in range(n):
         total += qd[i] * momentum[i]

@@ -104,21 +104,23 @@ def workspace_from_buffer(buf, n):
 
 
 @njit(cache=True, inline="always")
-def no_wrench_of(buf, n):
-    """``workspace_from_buffer(buf, n).no_wrench`` alone (the last six entries), borrowed, for
-    a caller that needs no other view of the workspace: the ~18 views cost compile time (the
-    RNEA's wrapper a computed-torque law calls compiled in 1.0 s with them, 0.4 s without)."""
-    return buffer_view(borrowed(buf), workspace_size(n) - 6, 6, np.float64)
+def rest_of(buf, n):
+    """``(zero, t1, no_wrench)`` of ``workspace_from_buffer(buf, n)`` alone, borrowed: the zero
+    vector, a scratch vector the RNEA leaves alone and the zero wrench, for a caller that needs
+    no other view of the workspace (its tail: t1, t2, zero, R0, no_wrench).  The ~18 views of
+    the whole workspace cost compile time: the RNEA's wrapper a computed-torque law calls
+    compiled in 1.0 s with them, 0.4 s without."""
+    buf = borrowed(buf)
+    size = workspace_size(n)
+    zero = size - 15 - n
+    return (buffer_view(buf, zero, n, np.float64), buffer_view(buf, zero - 2 * n, n, np.float64),
+            buffer_view(buf, size - 6, 6, np.float64))
 
 
 @njit(cache=True, inline="always")
-def rest_of(buf, n):
-    """``(zero, t1)`` of ``workspace_from_buffer(buf, n)`` alone, borrowed: the zero vector and
-    a scratch vector that the RNEA leaves alone, for a caller that needs no other view (as
-    :func:`no_wrench_of`)."""
-    buf = borrowed(buf)
-    zero = workspace_size(n) - 15 - n
-    return buffer_view(buf, zero, n, np.float64), buffer_view(buf, zero - 2 * n, n, np.float64)
+def no_wrench_of(buf, n):
+    """``workspace_from_buffer(buf, n).no_wrench`` alone, borrowed (:func:`rest_of`)."""
+    return rest_of(buf, n)[2]
 
 
 @njit(cache=True)
